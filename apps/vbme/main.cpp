@@ -1,0 +1,82 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+#include <algorithm>
+#include <cstdio>
+#include <iostream>
+
+#include <opencv2/core/utils/logger.hpp>
+#include <opencv2/vbme/core.hpp>
+
+#include "command.hpp"
+
+namespace vbme_app {
+
+std::vector<Command>& commands() {
+    static std::vector<Command> table;
+    return table;
+}
+
+static std::string g_command_line;
+const std::string& commandLine() { return g_command_line; }
+
+void addCommonOptions(CLI::App& app, CommonOptions& opts, bool with_force) {
+    if (with_force) app.add_flag("--force", opts.force, "Overwrite existing outputs");
+    app.add_flag("-q,--quiet", opts.quiet, "Print no progress");
+}
+
+void applyCommonOptions(const CommonOptions& opts) {
+    cv::vbme::Progress::setEnabled(!opts.quiet);
+}
+
+}  // namespace vbme_app
+
+int main(int argc, char** argv) {
+    using namespace vbme_app;
+    cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+    for (int i = 0; i < argc; ++i) g_command_line += (i ? " " : "") + std::string(argv[i]);
+
+    CLI::App app{
+        "vbme: physically based editing of ordinary video.\n"
+        "Re-renders a filmed object with a new material, or inserts synthetic objects into\n"
+        "hand-held footage of a room. Run 'vbme <command> --help' for a command's options."};
+    app.name("vbme");
+    app.set_version_flag("--version", std::string("vbme ") + VBME_VERSION);
+    app.require_subcommand(1);
+    app.fallthrough(false);
+
+    // DESIGN order; commands not in the list follow, by name.
+    static const std::vector<std::string> order = {
+        "track", "inpaint", "calibrate", "track-camera", "render", "composite",
+        "material-edit", "insert", "demo", "bench"};
+    auto rank = [](const std::string& n) {
+        auto it = std::find(order.begin(), order.end(), n);
+        return it == order.end() ? order.size() : size_t(it - order.begin());
+    };
+    auto& table = commands();
+    std::sort(table.begin(), table.end(), [&](const Command& a, const Command& b) {
+        return rank(a.name) != rank(b.name) ? rank(a.name) < rank(b.name) : a.name < b.name;
+    });
+    for (const auto& c : table) {
+        CLI::App* sub = app.add_subcommand(c.name, c.summary);
+        c.setup(*sub);
+    }
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        app.exit(e);
+        return 2;
+    } catch (const cv::Exception& e) {
+        std::fprintf(stderr, "vbme: error: %s\n", e.err.c_str());
+        return 1;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "vbme: error: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,82 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+#ifndef OPENCV_VBME_CORE_CAMERA_HPP
+#define OPENCV_VBME_CORE_CAMERA_HPP
+
+#include <opencv2/core.hpp>
+
+#include "opencv2/vbme/core/response.hpp"
+
+namespace cv {
+namespace vbme {
+
+//! @addtogroup vbme_core
+//! @{
+
+/** @brief A pinhole camera in the OpenCV convention (x right, y down, z forward).
+
+A world point X maps to the camera frame by `X_cam = R * X_world + t` (`cam_from_world`), then
+to pixels by K. Pixel centres sit at integer coordinates, so the image centre of a w×h image is
+((w−1)/2, (h−1)/2). COLMAP puts pixel centres at +0.5: use toColmapPrincipalPoint() and
+fromColmapPrincipalPoint() at that boundary. Rendering at another size scales K with scaled().
+*/
+struct CV_EXPORTS Camera {
+    Matx33d K = Matx33d::eye();  //!< intrinsics: fx, fy, skew, cx, cy
+    Matx33d R = Matx33d::eye();  //!< rotation of cam_from_world
+    Vec3d t = Vec3d(0, 0, 0);    //!< translation of cam_from_world
+    Size image_size;             //!< image size in pixels (width, height)
+    Response response = Response::SRGB;  //!< how the footage was display-encoded
+
+    /** @brief A camera with focal length @p f (pixels) and the principal point at the centre
+    of an image of size @p size; identity pose. */
+    static Camera fromFocal(double f, Size size);
+
+    /** @brief Maps a world point to the camera frame (`R * X + t`). */
+    Vec3d camFromWorld(const Vec3d& X_world) const { return R * X_world + t; }
+    /** @brief Maps a camera-frame point back to the world frame (`R^T (X − t)`). */
+    Vec3d worldFromCam(const Vec3d& X_cam) const { return R.t() * (X_cam - t); }
+    /** @brief Camera centre in world coordinates (`−R^T t`). */
+    Vec3d center() const { return -(R.t() * t); }
+
+    /** @brief Projects a world point to pixel coordinates.
+    @param X_world point in world coordinates (metres).
+    @param depth if not null, receives the point's z in the camera frame (positive in front).
+    @return pixel coordinates; meaningless when the depth is not positive. */
+    Point2d project(const Vec3d& X_world, double* depth = nullptr) const;
+
+    /** @brief Unit direction, in world coordinates, of the ray through pixel @p px. */
+    Vec3d rayDirection(const Point2d& px) const;
+
+    /** @brief The same camera for an image of size @p size: K is scaled so that pixel centres
+    keep the DESIGN convention (integer centres), i.e. `(x + 0.5) * s − 0.5`. */
+    Camera scaled(Size size) const;
+
+    /** @brief 4×4 cam_from_world matrix. */
+    Matx44d camFromWorldMatrix() const;
+
+    /** @brief Principal point in COLMAP's convention (pixel centres at +0.5). */
+    Point2d toColmapPrincipalPoint() const { return Point2d(K(0, 2) + 0.5, K(1, 2) + 0.5); }
+    /** @brief Sets the principal point from COLMAP's convention (subtracts 0.5). */
+    void fromColmapPrincipalPoint(const Point2d& c) {
+        K(0, 2) = c.x - 0.5;
+        K(1, 2) = c.y - 0.5;
+    }
+
+    /** @brief Writes the camera as a FileStorage map body (K, R, t, response). */
+    void write(FileStorage& fs) const;
+    /** @brief Reads a camera written by write(); matrices may also be nested sequences.
+    Throws cv::Exception naming the missing or malformed field. */
+    void read(const FileNode& node);
+};
+
+/** @brief Principal point at the image centre of the DESIGN convention: ((w−1)/2, (h−1)/2). */
+CV_EXPORTS Point2d imageCenter(Size size);
+
+/** @brief Converts a rotation to a proper orthonormal matrix (nearest rotation by SVD). */
+CV_EXPORTS Matx33d orthonormalize(const Matx33d& R);
+
+//! @}
+
+}  // namespace vbme
+}  // namespace cv
+
+#endif

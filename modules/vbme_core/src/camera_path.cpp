@@ -1,0 +1,96 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+#include "opencv2/vbme/core/camera_path.hpp"
+
+#include "opencv2/vbme/core/fileio.hpp"
+#include "opencv2/vbme/core/scene.hpp"
+
+namespace cv {
+namespace vbme {
+
+std::string CameraPath::sourceName(Source s) {
+    switch (s) {
+        case SFM: return "sfm";
+        case PNP: return "pnp";
+        case INTERPOLATED: return "interpolated";
+    }
+    return "sfm";
+}
+
+CameraPath::Source CameraPath::parseSource(const std::string& s, const std::string& field) {
+    if (s == "sfm") return SFM;
+    if (s == "pnp") return PNP;
+    if (s == "interpolated") return INTERPOLATED;
+    CV_Error(Error::StsBadArg,
+             field + ": unknown source '" + s + "' (expected sfm, pnp or interpolated)");
+}
+
+Camera CameraPath::camera(size_t i) const {
+    CV_Assert(i < frames.size());
+    Camera c;
+    c.K = K;
+    c.R = frames[i].R;
+    c.t = frames[i].t;
+    c.image_size = image_size;
+    return c;
+}
+
+CameraPath CameraPath::read(const std::string& path) {
+    FileStorage fs;
+    try {
+        fs.open(path, FileStorage::READ);
+    } catch (const cv::Exception& e) {
+        CV_Error(Error::StsParseError, path + ": not a readable YAML/JSON file: " + e.err);
+    }
+    if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open camera-path file");
+    CameraPath p;
+    try {
+        p.K = Matx33d(readMatrix(fs["K"], 3, 3, "K"));
+        if (!fs["image_size"].empty()) {
+            Mat sz = readMatrix(fs["image_size"], 2, 1, "image_size");
+            p.image_size = Size(cvRound(sz.at<double>(0)), cvRound(sz.at<double>(1)));
+        }
+        const FileNode frames = fs["frames"];
+        if (!frames.isSeq()) CV_Error(Error::StsParseError, "frames: expected a sequence");
+        int i = 0;
+        for (FileNodeIterator it = frames.begin(); it != frames.end(); ++it, ++i) {
+            const std::string f = "frames[" + std::to_string(i) + "]";
+            const FileNode n = *it;
+            Frame fr;
+            fr.index = n["index"].empty() ? i : (int)n["index"];
+            if (fr.index != i)
+                CV_Error(Error::StsParseError,
+                         format("%s.index: is %d, expected %d (one entry per frame, in order)",
+                                f.c_str(), fr.index, i));
+            fr.R = Matx33d(readMatrix(n["R"], 3, 3, f + ".R"));
+            fr.t = Vec3d(readMatrix(n["t"], 3, 1, f + ".t"));
+            if (!n["source"].empty()) fr.source = parseSource((std::string)n["source"], f + ".source");
+            if (std::abs(determinant(Mat(fr.R)) - 1.0) > 1e-3)
+                CV_Error(Error::StsBadArg, f + ".R: not a rotation");
+            p.frames.push_back(fr);
+        }
+    } catch (const cv::Exception& e) {
+        CV_Error(e.code, path + ": " + e.err);
+    }
+    return p;
+}
+
+void CameraPath::write(const std::string& path) const {
+    AtomicFile out(path);
+    {
+        FileStorage fs(out.tempPath(), FileStorage::WRITE);
+        if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open for writing");
+        fs << "K" << Mat(K);
+        if (image_size.area() > 0)
+            fs << "image_size" << "[:" << image_size.width << image_size.height << "]";
+        fs << "frames" << "[";
+        for (const auto& f : frames) {
+            fs << "{" << "index" << f.index << "R" << Mat(f.R) << "t" << Mat(f.t) << "source"
+               << sourceName(f.source) << "}";
+        }
+        fs << "]";
+    }
+    out.commit();
+}
+
+}  // namespace vbme
+}  // namespace cv

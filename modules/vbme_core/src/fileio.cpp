@@ -1,0 +1,99 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+#include "opencv2/vbme/core/fileio.hpp"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <filesystem>
+#include <system_error>
+
+#include <opencv2/imgcodecs.hpp>
+
+namespace fs = std::filesystem;
+
+namespace cv {
+namespace vbme {
+
+AtomicFile::AtomicFile(const std::string& final_path) : final_(final_path) {
+    static std::atomic<int> counter{0};
+    fs::path p(final_path);
+    if (p.filename().empty()) CV_Error(Error::StsBadArg, "'" + final_path + "' is not a file name");
+    std::error_code ec;
+    if (p.has_parent_path()) {
+        fs::create_directories(p.parent_path(), ec);
+        if (ec)
+            CV_Error(Error::StsError, "cannot create folder '" + p.parent_path().string() +
+                                          "': " + ec.message());
+    }
+    const std::string tag = ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
+    fs::path tmp = p.parent_path() / (p.stem().string() + tag + p.extension().string());
+    temp_ = tmp.string();
+}
+
+AtomicFile::~AtomicFile() {
+    if (!committed_) {
+        std::error_code ec;
+        fs::remove(temp_, ec);
+    }
+}
+
+void AtomicFile::commit() {
+    std::error_code ec;
+    if (!fs::exists(temp_, ec))
+        CV_Error(Error::StsError, "'" + final_ + "' was not written (no temporary file)");
+    fs::rename(temp_, final_, ec);
+    if (ec) CV_Error(Error::StsError, "cannot rename into '" + final_ + "': " + ec.message());
+    committed_ = true;
+}
+
+void checkOverwrite(const std::string& path, bool force) {
+    std::error_code ec;
+    if (!force && fs::exists(path, ec))
+        CV_Error(Error::StsError, "'" + path + "' exists; use --force to overwrite it");
+}
+
+void imwriteAtomic(const std::string& path, InputArray img, const std::vector<int>& params) {
+    AtomicFile out(path);
+    bool ok = false;
+    try {
+        ok = imwrite(out.tempPath(), img, params);
+    } catch (const cv::Exception& e) {
+        CV_Error(Error::StsError, "cannot write '" + path + "': " + e.err);
+    }
+    if (!ok) CV_Error(Error::StsError, "cannot write '" + path + "' (no encoder for this type?)");
+    out.commit();
+}
+
+Mat imreadChecked(const std::string& path, int flags) {
+    std::error_code ec;
+    if (!fs::exists(path, ec)) CV_Error(Error::StsError, "'" + path + "' does not exist");
+    if (fs::is_directory(path, ec))
+        CV_Error(Error::StsError, "'" + path + "' is a folder, expected an image file");
+    Mat m = imread(path, flags);
+    if (m.empty()) CV_Error(Error::StsError, "'" + path + "' is not a readable image");
+    return m;
+}
+
+std::string resolvePath(const std::string& base, const std::string& p) {
+    fs::path q(p);
+    if (q.is_absolute()) return q.lexically_normal().string();
+    return (fs::absolute(fs::path(base)) / q).lexically_normal().string();
+}
+
+std::string relativePath(const std::string& base, const std::string& p) {
+    fs::path b = fs::absolute(fs::path(base)).lexically_normal();
+    fs::path q = fs::absolute(fs::path(p)).lexically_normal();
+    fs::path rel = q.lexically_relative(b);
+    if (rel.empty() || *rel.begin() == "..") return p;
+    return rel.string();
+}
+
+std::string parentFolder(const std::string& path) {
+    fs::path p(path);
+    return p.has_parent_path() ? p.parent_path().string() : std::string(".");
+}
+
+std::string maskFileName(int frame) { return format("mask_%05d.png", frame); }
+
+}  // namespace vbme
+}  // namespace cv

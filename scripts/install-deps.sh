@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Installs every Debian package vbme needs, for the whole planned stack.
+# Idempotent: packages already present are skipped. Works as root, uses sudo otherwise.
+set -euo pipefail
+
+PACKAGES=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config git
+  # vbme_core / vbme_track / vbme_inpaint / vbme_calib
+  libopencv-dev libopencv-contrib-dev
+  libeigen3-dev libceres-dev
+  # vbme_render
+  libembree-dev embree-tools libtbb-dev libopenexr-dev libassimp-dev
+  # camera tracking (the colmap program) and video
+  colmap ffmpeg
+  # command line, tests, benchmarks
+  libcli11-dev libgtest-dev libgmock-dev googletest libbenchmark-dev
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages already installed"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then
+  if command -v sudo >/dev/null 2>&1; then
+    SUDO="sudo"
+  else
+    echo "install-deps: not root and sudo is not available; install: ${missing[*]}" >&2
+    exit 1
+  fi
+fi
+
+echo "install-deps: installing ${#missing[@]} package(s): ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
