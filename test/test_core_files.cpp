@@ -112,7 +112,8 @@ TEST_P(CoreSceneRoundTrip, AllFieldsSurvive) {
     EXPECT_TRUE(r.lights[4].image.empty());
     ASSERT_EQ(r.objects.size(), 2u);
     EXPECT_EQ(r.objects[0].mesh, dir + "/bunny.obj");
-    EXPECT_LT(norm(Mat(r.objects[0].world_from_object), Mat(s.objects[0].world_from_object)), 1e-12);
+    EXPECT_LT(norm(Mat(r.objects[0].world_from_object), Mat(s.objects[0].world_from_object)),
+              1e-12);
     EXPECT_TRUE(r.objects[0].has_material);
     expectSameMaterial(r.objects[0].material, s.objects[0].material);
     EXPECT_FALSE(r.objects[1].has_material);
@@ -134,19 +135,21 @@ INSTANTIATE_TEST_SUITE_P(Formats, CoreSceneRoundTrip, ::testing::Values("yml", "
 TEST(CoreScene, ReadsHandWrittenDesignExample) {
     vbme_test::ScratchDir tmp;
     const std::string path = tmp / "hand.yml";
-    std::ofstream(path) << "%YAML:1.0\n"
-                           "image_size: [640, 480]\n"
-                           "camera:\n"
-                           "  K: [[500, 0, 319.5], [0, 500, 239.5], [0, 0, 1]]\n"
-                           "  R: [1, 0, 0, 0, 0, -1, 0, 1, 0]\n"
-                           "  t: [0, 1.5, 0]\n"
-                           "room: { min: [-2, -1, 0], max: [2, 3, 2.5], textures: { floor: f.png } }\n"
-                           "lights:\n"
-                           "  - { type: polygon, corners: [[0,0,2.5],[0,1,2.5],[1,1,2.5]], radiance: [1,2,3] }\n"
-                           "objects:\n"
-                           "  - { mesh: bunny.obj, material: { type: dielectric, ior: 1.33, absorption: [1,0.5,0.1] } }\n"
-                           "  - { mesh: ball.obj, material: chrome }\n"
-                           "render: { spp: 16 }\n";
+    std::ofstream(path)
+        << "%YAML:1.0\n"
+           "image_size: [640, 480]\n"
+           "camera:\n"
+           "  K: [[500, 0, 319.5], [0, 500, 239.5], [0, 0, 1]]\n"
+           "  R: [1, 0, 0, 0, 0, -1, 0, 1, 0]\n"
+           "  t: [0, 1.5, 0]\n"
+           "room: { min: [-2, -1, 0], max: [2, 3, 2.5], textures: { floor: f.png } }\n"
+           "lights:\n"
+           "  - { type: polygon, corners: [[0,0,2.5],[0,1,2.5],[1,1,2.5]], radiance: [1,2,3] }\n"
+           "objects:\n"
+           "  - { mesh: bunny.obj, material: { type: dielectric, ior: 1.33, absorption: "
+           "[1,0.5,0.1] } }\n"
+           "  - { mesh: ball.obj, material: chrome }\n"
+           "render: { spp: 16 }\n";
     Scene s = Scene::read(path);
     EXPECT_EQ(s.camera.K(0, 0), 500);
     EXPECT_EQ(s.camera.R(1, 2), -1);
@@ -173,10 +176,12 @@ TEST(CoreScene, ErrorsNameTheField) {
     vbme_test::ScratchDir tmp;
     const std::string head =
         "%YAML:1.0\nimage_size: [64, 48]\ncamera: { K: [50,0,31.5,0,50,23.5,0,0,1] }\n";
-    EXPECT_NE(readError(tmp / "a.yml", head + "objects:\n  - { mesh: a.obj, material: { type: velvet } }\n")
+    EXPECT_NE(readError(tmp / "a.yml",
+                        head + "objects:\n  - { mesh: a.obj, material: { type: velvet } }\n")
                   .find("objects[0].material.type: unknown material type 'velvet'"),
               std::string::npos);
-    EXPECT_NE(readError(tmp / "b.yml", head + "objects:\n  - { mesh: a.obj, world_from_object: [0,0,0,0, 0,0,0,0, 0,0,0,0, 0,0,0,1] }\n")
+    EXPECT_NE(readError(tmp / "b.yml", head + "objects:\n  - { mesh: a.obj, world_from_object: "
+                                              "[0,0,0,0, 0,0,0,0, 0,0,0,0, 0,0,0,1] }\n")
                   .find("objects[0].world_from_object: not invertible"),
               std::string::npos);
     EXPECT_NE(readError(tmp / "c.yml", head + "lights:\n  - { type: point, position: [0,0,1] }\n")
@@ -184,10 +189,12 @@ TEST(CoreScene, ErrorsNameTheField) {
               std::string::npos);
     EXPECT_NE(readError(tmp / "d.yml", "%YAML:1.0\nimage_size: [64, 48]\n").find("camera"),
               std::string::npos);
-    EXPECT_NE(readError(tmp / "e.yml", head + "room: { min: [0,0,0], max: [1,0,1] }\n").find("room"),
-              std::string::npos);
-    EXPECT_NE(readError(tmp / "f.yml", head + "lights:\n  - { type: laser }\n").find("lights[0].type"),
-              std::string::npos);
+    EXPECT_NE(
+        readError(tmp / "e.yml", head + "room: { min: [0,0,0], max: [1,0,1] }\n").find("room"),
+        std::string::npos);
+    EXPECT_NE(
+        readError(tmp / "f.yml", head + "lights:\n  - { type: laser }\n").find("lights[0].type"),
+        std::string::npos);
     EXPECT_THROW(Scene::read(tmp / "missing.yml"), cv::Exception);
 }
 

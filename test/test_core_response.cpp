@@ -18,14 +18,16 @@ TEST(CoreResponse, SrgbKnownValues) {
 TEST(CoreResponse, RoundTripEveryByte) {
     for (Response r : {Response::SRGB, Response::GAMMA22, Response::LINEAR}) {
         Mat v(1, 256, CV_8UC3);
-        for (int i = 0; i < 256; ++i) v.at<Vec3b>(i) = Vec3b(i, 255 - i, i / 2);
+        for (int i = 0; i < 256; ++i)
+            v.at<Vec3b>(i) = Vec3b(i, 255 - i, i / 2);
         Mat lin, back;
         linearize(v, lin, r);
         ASSERT_EQ(lin.type(), CV_32FC3);
         encode(lin, back, r, CV_8U);
         EXPECT_EQ(norm(v, back, NORM_INF), 0) << toString(r);
         // Monotone.
-        for (int i = 1; i < 256; ++i) EXPECT_GT(lin.at<Vec3f>(i)[0], lin.at<Vec3f>(i - 1)[0]);
+        for (int i = 1; i < 256; ++i)
+            EXPECT_GT(lin.at<Vec3f>(i)[0], lin.at<Vec3f>(i - 1)[0]);
     }
 }
 
@@ -36,7 +38,8 @@ TEST(CoreResponse, FloatAndSixteenBitAgreeWithScalar) {
     f.at<float>(2) = 0.9f;
     Mat lin;
     linearize(f, lin, Response::SRGB);
-    for (int i = 0; i < 3; ++i) EXPECT_FLOAT_EQ(lin.at<float>(i), linearize(f.at<float>(i), Response::SRGB));
+    for (int i = 0; i < 3; ++i)
+        EXPECT_FLOAT_EQ(lin.at<float>(i), linearize(f.at<float>(i), Response::SRGB));
     Mat s(1, 1, CV_16U, Scalar(65535));
     linearize(s, lin, Response::GAMMA22);
     EXPECT_NEAR(lin.at<float>(0), 1.f, 1e-6);

@@ -18,7 +18,8 @@ static Mat makeFrame(int i, Size size) {
     Mat f(size, CV_8UC3);
     RNG rng(i + 1);
     rng.fill(f, RNG::UNIFORM, 0, 256);
-    putText(f, std::to_string(i), Point(5, size.height - 5), FONT_HERSHEY_SIMPLEX, 1, Scalar(255, 255, 255), 2);
+    putText(f, std::to_string(i), Point(5, size.height - 5), FONT_HERSHEY_SIMPLEX, 1,
+            Scalar(255, 255, 255), 2);
     return f;
 }
 
@@ -28,7 +29,8 @@ TEST(CoreVideo, LosslessFfv1RoundTripKeepsFramesAndRate) {
     const std::string path = tmp / "clip.mkv";
     {
         VideoSink sink(path, 24, size);
-        for (int i = 0; i < 10; ++i) sink.write(makeFrame(i, size));
+        for (int i = 0; i < 10; ++i)
+            sink.write(makeFrame(i, size));
         EXPECT_FALSE(std::filesystem::exists(path));  // not there until complete
         sink.close();
     }
@@ -51,7 +53,8 @@ TEST(CoreVideo, ImageSequenceRoundTrip) {
     const Size size(40, 30);
     {
         VideoSink sink(tmp / "seq/%05d.png", 12.5, size);
-        for (int i = 0; i < 4; ++i) sink.write(makeFrame(i, size));
+        for (int i = 0; i < 4; ++i)
+            sink.write(makeFrame(i, size));
         sink.close();
     }
     VideoReader folder(tmp / "seq");
@@ -74,11 +77,13 @@ TEST(CoreVideo, ImageSequenceRoundTrip) {
 TEST(CoreVideo, SequenceOrderIsNumericNotLexical) {
     vbme_test::ScratchDir tmp;
     std::filesystem::create_directories(tmp / "s");
-    for (int i : {1, 2, 10}) imwrite(tmp / ("s/f" + std::to_string(i) + ".png"), Mat(8, 8, CV_8UC3, Scalar(i, i, i)));
+    for (int i : {1, 2, 10})
+        imwrite(tmp / ("s/f" + std::to_string(i) + ".png"), Mat(8, 8, CV_8UC3, Scalar(i, i, i)));
     VideoReader r(tmp / "s");
     Mat f;
     std::vector<int> seen;
-    while (r.read(f)) seen.push_back(f.at<Vec3b>(0, 0)[0]);
+    while (r.read(f))
+        seen.push_back(f.at<Vec3b>(0, 0)[0]);
     EXPECT_EQ(seen, (std::vector<int>{1, 2, 10}));
 }
 
@@ -90,20 +95,22 @@ TEST(CoreVideo, RotationMetadataIsHonoured) {
     const Size size(64, 32);
     Mat frame(size, CV_8UC3, Scalar(0, 0, 0));
     rectangle(frame, Rect(0, 0, 16, 32), Scalar(255, 255, 255), FILLED);  // white left band
-    rectangle(frame, Rect(48, 0, 16, 8), Scalar(0, 0, 255), FILLED);     // red top-right mark
+    rectangle(frame, Rect(48, 0, 16, 8), Scalar(0, 0, 255), FILLED);      // red top-right mark
     {
         VideoSink sink(tmp / "plain.mkv", 10, size);
-        for (int i = 0; i < 3; ++i) sink.write(frame);
+        for (int i = 0; i < 3; ++i)
+            sink.write(frame);
         sink.close();
     }
     // Encode losslessly, then tag the stream (stream copy keeps the tag as a display matrix).
-    auto r = vbme_test::run("ffmpeg -v error -y -i " + (tmp / "plain.mkv") + " -c:v libx264 -qp 0 " +
-                            (tmp / "plain.mp4"));
+    auto r = vbme_test::run("ffmpeg -v error -y -i " + (tmp / "plain.mkv") +
+                            " -c:v libx264 -qp 0 " + (tmp / "plain.mp4"));
     ASSERT_EQ(r.code, 0) << r.output;
     r = vbme_test::run("ffmpeg -v error -y -i " + (tmp / "plain.mp4") +
                        " -c copy -metadata:s:v:0 rotate=90 " + (tmp / "rot.mp4"));
     ASSERT_EQ(r.code, 0) << r.output;
-    r = vbme_test::run("ffmpeg -v error -y -i " + (tmp / "rot.mp4") + " -frames:v 1 " + (tmp / "ref.png"));
+    r = vbme_test::run("ffmpeg -v error -y -i " + (tmp / "rot.mp4") + " -frames:v 1 " +
+                       (tmp / "ref.png"));
     ASSERT_EQ(r.code, 0) << r.output;
     Mat ref = imread(tmp / "ref.png");
     ASSERT_EQ(ref.size(), Size(32, 64)) << "ffmpeg did not rotate: test premise broken";
@@ -153,7 +160,8 @@ TEST(CoreVideo, Mp4OutputIsReadable) {
     const Size size(64, 48);
     {
         VideoSink sink(tmp / "o.mp4", 25, size);
-        for (int i = 0; i < 5; ++i) sink.write(Mat(size, CV_8UC3, Scalar(40 * i, 100, 200)));
+        for (int i = 0; i < 5; ++i)
+            sink.write(Mat(size, CV_8UC3, Scalar(40 * i, 100, 200)));
         sink.close();
     }
     VideoReader in(tmp / "o.mp4");
@@ -171,7 +179,8 @@ TEST(CoreProgress, CountsAndIsThreadSafe) {
     Progress::setEnabled(false);
     Progress p("work", 1000);
     parallel_for_(Range(0, 1000), [&](const Range& r) {
-        for (int i = r.start; i < r.end; ++i) p.tick();
+        for (int i = r.start; i < r.end; ++i)
+            p.tick();
     });
     EXPECT_EQ(p.done(), 1000);
     Progress::setEnabled(true);

@@ -19,9 +19,11 @@ class ScratchDir {
 public:
     ScratchDir() {
         const char* base = std::getenv("VBME_TEST_TMP");
-        std::filesystem::path root = base ? base : std::filesystem::temp_directory_path() / "vbme-test";
+        std::filesystem::path root =
+            base ? base : std::filesystem::temp_directory_path() / "vbme-test";
         const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "test";
+        std::string name =
+            info ? std::string(info->test_suite_name()) + "." + info->name() : "test";
         path_ = root / (name + "-" + std::to_string(::getpid()));
         std::filesystem::remove_all(path_);
         std::filesystem::create_directories(path_);
@@ -52,7 +54,8 @@ inline RunResult run(const std::string& cmd) {
     if (!p) return r;
     char buf[4096];
     size_t n;
-    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
+    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0)
+        r.output.append(buf, n);
     const int status = ::pclose(p);
     r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     return r;

@@ -16,7 +16,9 @@ std::vector<Command>& commands() {
 }
 
 static std::string g_command_line;
-const std::string& commandLine() { return g_command_line; }
+const std::string& commandLine() {
+    return g_command_line;
+}
 
 void addCommonOptions(CLI::App& app, CommonOptions& opts, bool with_force) {
     if (with_force) app.add_flag("--force", opts.force, "Overwrite existing outputs");
@@ -32,7 +34,8 @@ void applyCommonOptions(const CommonOptions& opts) {
 int main(int argc, char** argv) {
     using namespace vbme_app;
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
-    for (int i = 0; i < argc; ++i) g_command_line += (i ? " " : "") + std::string(argv[i]);
+    for (int i = 0; i < argc; ++i)
+        g_command_line += (i ? " " : "") + std::string(argv[i]);
 
     CLI::App app{
         "vbme: physically based editing of ordinary video.\n"
@@ -45,8 +48,8 @@ int main(int argc, char** argv) {
 
     // DESIGN order; commands not in the list follow, by name.
     static const std::vector<std::string> order = {
-        "track", "inpaint", "calibrate", "track-camera", "render", "composite",
-        "material-edit", "insert", "demo", "bench"};
+        "track",     "inpaint",       "calibrate", "track-camera", "render",
+        "composite", "material-edit", "insert",    "demo",         "bench"};
     auto rank = [](const std::string& n) {
         auto it = std::find(order.begin(), order.end(), n);
         return it == order.end() ? order.size() : size_t(it - order.begin());
@@ -60,6 +63,19 @@ int main(int argc, char** argv) {
         c.setup(*sub);
     }
 
+    if (argc > 1 && argv[1][0] != '-') {
+        bool known = false;
+        for (const auto& c : table)
+            known = known || c.name == argv[1];
+        if (!known) {
+            std::string names;
+            for (const auto& c : table)
+                names += (names.empty() ? "" : ", ") + c.name;
+            std::fprintf(stderr, "vbme: unknown command '%s' (commands: %s; see vbme --help)\n",
+                         argv[1], names.c_str());
+            return 2;
+        }
+    }
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

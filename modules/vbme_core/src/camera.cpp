@@ -6,7 +6,9 @@
 namespace cv {
 namespace vbme {
 
-Point2d imageCenter(Size size) { return Point2d((size.width - 1) * 0.5, (size.height - 1) * 0.5); }
+Point2d imageCenter(Size size) {
+    return Point2d((size.width - 1) * 0.5, (size.height - 1) * 0.5);
+}
 
 Camera Camera::fromFocal(double f, Size size) {
     Camera c;
@@ -45,7 +47,8 @@ Camera Camera::scaled(Size size) const {
 Matx44d Camera::camFromWorldMatrix() const {
     Matx44d M = Matx44d::eye();
     for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) M(r, c) = R(r, c);
+        for (int c = 0; c < 3; ++c)
+            M(r, c) = R(r, c);
         M(r, 3) = t[r];
     }
     return M;

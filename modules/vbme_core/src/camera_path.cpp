@@ -9,9 +9,12 @@ namespace vbme {
 
 std::string CameraPath::sourceName(Source s) {
     switch (s) {
-        case SFM: return "sfm";
-        case PNP: return "pnp";
-        case INTERPOLATED: return "interpolated";
+        case SFM:
+            return "sfm";
+        case PNP:
+            return "pnp";
+        case INTERPOLATED:
+            return "interpolated";
     }
     return "sfm";
 }
@@ -63,7 +66,8 @@ CameraPath CameraPath::read(const std::string& path) {
                                 f.c_str(), fr.index, i));
             fr.R = Matx33d(readMatrix(n["R"], 3, 3, f + ".R"));
             fr.t = Vec3d(readMatrix(n["t"], 3, 1, f + ".t"));
-            if (!n["source"].empty()) fr.source = parseSource((std::string)n["source"], f + ".source");
+            if (!n["source"].empty())
+                fr.source = parseSource((std::string)n["source"], f + ".source");
             if (std::abs(determinant(Mat(fr.R)) - 1.0) > 1e-3)
                 CV_Error(Error::StsBadArg, f + ".R: not a rotation");
             p.frames.push_back(fr);
@@ -81,10 +85,13 @@ void CameraPath::write(const std::string& path) const {
         if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open for writing");
         fs << "K" << Mat(K);
         if (image_size.area() > 0)
-            fs << "image_size" << "[:" << image_size.width << image_size.height << "]";
-        fs << "frames" << "[";
+            fs << "image_size"
+               << "[:" << image_size.width << image_size.height << "]";
+        fs << "frames"
+           << "[";
         for (const auto& f : frames) {
-            fs << "{" << "index" << f.index << "R" << Mat(f.R) << "t" << Mat(f.t) << "source"
+            fs << "{"
+               << "index" << f.index << "R" << Mat(f.R) << "t" << Mat(f.t) << "source"
                << sourceName(f.source) << "}";
         }
         fs << "]";

@@ -22,10 +22,11 @@ AtomicFile::AtomicFile(const std::string& final_path) : final_(final_path) {
     if (p.has_parent_path()) {
         fs::create_directories(p.parent_path(), ec);
         if (ec)
-            CV_Error(Error::StsError, "cannot create folder '" + p.parent_path().string() +
-                                          "': " + ec.message());
+            CV_Error(Error::StsError,
+                     "cannot create folder '" + p.parent_path().string() + "': " + ec.message());
     }
-    const std::string tag = ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
+    const std::string tag =
+        ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
     fs::path tmp = p.parent_path() / (p.stem().string() + tag + p.extension().string());
     temp_ = tmp.string();
 }
@@ -93,7 +94,9 @@ std::string parentFolder(const std::string& path) {
     return p.has_parent_path() ? p.parent_path().string() : std::string(".");
 }
 
-std::string maskFileName(int frame) { return format("mask_%05d.png", frame); }
+std::string maskFileName(int frame) {
+    return format("mask_%05d.png", frame);
+}
 
 }  // namespace vbme
 }  // namespace cv

@@ -8,15 +8,21 @@ namespace vbme {
 
 static std::atomic<bool> g_progress_enabled{true};
 
-void Progress::setEnabled(bool on) { g_progress_enabled = on; }
-bool Progress::enabled() { return g_progress_enabled; }
+void Progress::setEnabled(bool on) {
+    g_progress_enabled = on;
+}
+bool Progress::enabled() {
+    return g_progress_enabled;
+}
 
 Progress::Progress(const std::string& label, int64 total, FILE* out)
     : label_(label), total_(total), out_(out), tty_(out && isatty(fileno(out))) {
     start_ = last_draw_ = std::chrono::steady_clock::now();
 }
 
-Progress::~Progress() { finish(); }
+Progress::~Progress() {
+    finish();
+}
 
 double Progress::elapsed() const {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
@@ -74,8 +80,9 @@ void Progress::draw(bool) {
         if (decile <= last_decile_ || decile >= 10) return;
         last_decile_ = decile;
         if (decile == 0) return;
-        std::fprintf(out_, "%s: %d%% (%lld/%lld, %.1f/s, ETA %.0f s)\n", label_.c_str(), decile * 10,
-                     (long long)d, (long long)total_, rate, rate > 0 ? (total_ - d) / rate : 0.0);
+        std::fprintf(out_, "%s: %d%% (%lld/%lld, %.1f/s, ETA %.0f s)\n", label_.c_str(),
+                     decile * 10, (long long)d, (long long)total_, rate,
+                     rate > 0 ? (total_ - d) / rate : 0.0);
         std::fflush(out_);
     }
 }

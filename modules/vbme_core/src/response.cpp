@@ -20,9 +20,12 @@ Response parseResponse(const std::string& name) {
 
 std::string toString(Response r) {
     switch (r) {
-        case Response::SRGB: return "srgb";
-        case Response::GAMMA22: return "gamma2.2";
-        case Response::LINEAR: return "linear";
+        case Response::SRGB:
+            return "srgb";
+        case Response::GAMMA22:
+            return "gamma2.2";
+        case Response::LINEAR:
+            return "linear";
     }
     return "srgb";
 }
@@ -31,8 +34,10 @@ float linearize(float v, Response r) {
     switch (r) {
         case Response::SRGB:
             return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
-        case Response::GAMMA22: return v <= 0.f ? 0.f : std::pow(v, 2.2f);
-        case Response::LINEAR: return v;
+        case Response::GAMMA22:
+            return v <= 0.f ? 0.f : std::pow(v, 2.2f);
+        case Response::LINEAR:
+            return v;
     }
     return v;
 }
@@ -41,8 +46,10 @@ float encode(float v, Response r) {
     switch (r) {
         case Response::SRGB:
             return v <= 0.0031308f ? v * 12.92f : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;
-        case Response::GAMMA22: return v <= 0.f ? 0.f : std::pow(v, 1.f / 2.2f);
-        case Response::LINEAR: return v;
+        case Response::GAMMA22:
+            return v <= 0.f ? 0.f : std::pow(v, 1.f / 2.2f);
+        case Response::LINEAR:
+            return v;
     }
     return v;
 }
@@ -53,7 +60,8 @@ void linearize(InputArray _src, OutputArray _dst, Response r) {
     const int cn = src.channels();
     if (src.depth() == CV_8U) {
         Mat lut(1, 256, CV_32F);
-        for (int i = 0; i < 256; ++i) lut.at<float>(i) = linearize(i / 255.f, r);
+        for (int i = 0; i < 256; ++i)
+            lut.at<float>(i) = linearize(i / 255.f, r);
         LUT(src, lut, _dst);  // a one-channel table applies to every channel
         return;
     }
@@ -68,7 +76,8 @@ void linearize(InputArray _src, OutputArray _dst, Response r) {
         f = f.reshape(1);
         for (int y = 0; y < f.rows; ++y) {
             float* p = f.ptr<float>(y);
-            for (int x = 0; x < f.cols; ++x) p[x] = linearize(p[x], r);
+            for (int x = 0; x < f.cols; ++x)
+                p[x] = linearize(p[x], r);
         }
         f = f.reshape(cn);
     }
@@ -84,7 +93,8 @@ void encode(InputArray _src, OutputArray _dst, Response r, int ddepth) {
     if (r != Response::LINEAR) {
         for (int y = 0; y < f.rows; ++y) {
             float* p = f.ptr<float>(y);
-            for (int x = 0; x < f.cols; ++x) p[x] = encode(p[x], r);
+            for (int x = 0; x < f.cols; ++x)
+                p[x] = encode(p[x], r);
         }
     }
     f = f.reshape(cn);

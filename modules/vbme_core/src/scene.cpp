@@ -12,7 +12,8 @@ namespace vbme {
 
 static void collectNumbers(const FileNode& n, std::vector<double>& out, const std::string& field) {
     if (n.isSeq()) {
-        for (FileNodeIterator it = n.begin(); it != n.end(); ++it) collectNumbers(*it, out, field);
+        for (FileNodeIterator it = n.begin(); it != n.end(); ++it)
+            collectNumbers(*it, out, field);
     } else if (n.isReal() || n.isInt()) {
         out.push_back((double)n);
     } else {
@@ -74,8 +75,8 @@ static std::string readString(const FileNode& n, const std::string& field) {
 
 // ---------------------------------------------------------------- Material
 
-static const char* kMaterialTypes[] = {"lambertian", "phong",      "cook_torrance", "conductor",
-                                       "dielectric", "plastic",    "emissive"};
+static const char* kMaterialTypes[] = {"lambertian", "phong",   "cook_torrance", "conductor",
+                                       "dielectric", "plastic", "emissive"};
 
 Material::Type Material::parseType(const std::string& name, const std::string& field) {
     for (int i = 0; i < 7; ++i)
@@ -85,7 +86,9 @@ Material::Type Material::parseType(const std::string& name, const std::string& f
                                    "dielectric, plastic or emissive)");
 }
 
-std::string Material::typeName(Type t) { return kMaterialTypes[int(t)]; }
+std::string Material::typeName(Type t) {
+    return kMaterialTypes[int(t)];
+}
 
 std::vector<std::string> Material::presetNames() {
     return {"chrome", "gold", "copper", "silver", "mirror", "glass",
@@ -134,8 +137,10 @@ Material Material::preset(const std::string& name) {
         m.albedo = name == "matte" ? Vec3d(0.5, 0.5, 0.5) : Vec3d(0.8, 0.8, 0.8);
     } else {
         std::string list;
-        for (const auto& n : presetNames()) list += (list.empty() ? "" : ", ") + n;
-        CV_Error(Error::StsBadArg, "unknown material preset '" + name + "' (expected " + list + ")");
+        for (const auto& n : presetNames())
+            list += (list.empty() ? "" : ", ") + n;
+        CV_Error(Error::StsBadArg,
+                 "unknown material preset '" + name + "' (expected " + list + ")");
     }
     return m;
 }
@@ -143,7 +148,9 @@ Material Material::preset(const std::string& name) {
 void Material::write(FileStorage& fs) const {
     fs << "type" << typeName(type);
     switch (type) {
-        case LAMBERTIAN: writeVec3(fs, "albedo", albedo); break;
+        case LAMBERTIAN:
+            writeVec3(fs, "albedo", albedo);
+            break;
         case PHONG:
             writeVec3(fs, "kd", kd);
             writeVec3(fs, "ks", ks);
@@ -171,7 +178,9 @@ void Material::write(FileStorage& fs) const {
             writeVec3(fs, "albedo", albedo);
             fs << "ior" << ior << "roughness" << roughness;
             break;
-        case EMISSIVE: writeVec3(fs, "radiance", radiance); break;
+        case EMISSIVE:
+            writeVec3(fs, "radiance", radiance);
+            break;
     }
 }
 
@@ -198,7 +207,8 @@ void Material::read(const FileNode& node, const std::string& field) {
     k = readVec3Or(node["k"], field + ".k", k);
     if (!node["colour"].empty() || !node["color"].empty()) {
         use_colour = true;
-        colour = readVec3(node["colour"].empty() ? node["color"] : node["colour"], field + ".colour");
+        colour =
+            readVec3(node["colour"].empty() ? node["color"] : node["colour"], field + ".colour");
     }
     absorption = readVec3Or(node["absorption"], field + ".absorption", absorption);
     radiance = readVec3Or(node["radiance"], field + ".radiance", radiance);
@@ -237,7 +247,8 @@ void writeMaterialFile(const std::string& path, const Material& m) {
     AtomicFile out(path);
     {
         FileStorage fs = openForWrite(out.tempPath());
-        fs << "material" << "{";
+        fs << "material"
+           << "{";
         m.write(fs);
         fs << "}";
     }
@@ -255,7 +266,9 @@ Light::Type Light::parseType(const std::string& name, const std::string& field) 
                                    "' (expected polygon, point, distant or environment)");
 }
 
-std::string Light::typeName(Type t) { return kLightTypes[int(t)]; }
+std::string Light::typeName(Type t) {
+    return kLightTypes[int(t)];
+}
 
 Vec3d Light::polygonNormal() const {
     // Newell's method: robust for any planar polygon, follows the winding.
@@ -292,7 +305,8 @@ static void readObjects(const FileNode& seq, const std::string& key, const std::
                 Matx44d(readMatrix(n["world_from_object"], 4, 4, f + ".world_from_object"));
             Matx33d A;
             for (int r = 0; r < 3; ++r)
-                for (int c = 0; c < 3; ++c) A(r, c) = o.world_from_object(r, c);
+                for (int c = 0; c < 3; ++c)
+                    A(r, c) = o.world_from_object(r, c);
             if (std::abs(determinant(A)) < 1e-12)
                 CV_Error(Error::StsBadArg, f + ".world_from_object: not invertible");
         }
@@ -309,10 +323,12 @@ static void writeObjects(FileStorage& fs, const std::string& key, const std::str
     if (objs.empty()) return;
     fs << key << "[";
     for (const auto& o : objs) {
-        fs << "{" << "mesh" << relativePath(base, o.mesh);
+        fs << "{"
+           << "mesh" << relativePath(base, o.mesh);
         fs << "world_from_object" << Mat(o.world_from_object);
         if (o.has_material) {
-            fs << "material" << "{";
+            fs << "material"
+               << "{";
             o.material.write(fs);
             fs << "}";
         }
@@ -412,10 +428,12 @@ static Scene readSceneImpl(const FileStorage& fs, const std::string& base) {
     const FileNode r = root["render"];
     if (!r.empty() && !r.isNone()) {
         s.render.spp = (int)readNumber(r["spp"], "render.spp", s.render.spp);
-        s.render.max_depth = (int)readNumber(r["max_depth"], "render.max_depth", s.render.max_depth);
+        s.render.max_depth =
+            (int)readNumber(r["max_depth"], "render.max_depth", s.render.max_depth);
         s.render.seed = (uint64)readNumber(r["seed"], "render.seed", (double)s.render.seed);
         if (s.render.spp <= 0) CV_Error(Error::StsBadArg, "render.spp: must be positive");
-        if (s.render.max_depth <= 0) CV_Error(Error::StsBadArg, "render.max_depth: must be positive");
+        if (s.render.max_depth <= 0)
+            CV_Error(Error::StsBadArg, "render.max_depth: must be positive");
     }
     return s;
 }
@@ -440,29 +458,38 @@ void Scene::write(const std::string& path) const {
     AtomicFile out(path);
     {
         FileStorage fs = openForWrite(out.tempPath());
-        fs << "image_size" << "[:" << image_size.width << image_size.height << "]";
-        fs << "camera" << "{";
+        fs << "image_size"
+           << "[:" << image_size.width << image_size.height << "]";
+        fs << "camera"
+           << "{";
         camera.write(fs);
         fs << "}";
         if (has_room) {
-            fs << "room" << "{";
+            fs << "room"
+               << "{";
             writeVec3(fs, "min", room.min);
             writeVec3(fs, "max", room.max);
             if (!room.textures.empty()) {
-                fs << "textures" << "{";
-                for (const auto& kv : room.textures) fs << kv.first << relativePath(base, kv.second);
+                fs << "textures"
+                   << "{";
+                for (const auto& kv : room.textures)
+                    fs << kv.first << relativePath(base, kv.second);
                 fs << "}";
             }
             fs << "}";
         }
         if (!lights.empty()) {
-            fs << "lights" << "[";
+            fs << "lights"
+               << "[";
             for (const auto& l : lights) {
-                fs << "{" << "type" << Light::typeName(l.type);
+                fs << "{"
+                   << "type" << Light::typeName(l.type);
                 switch (l.type) {
                     case Light::POLYGON:
-                        fs << "corners" << "[";
-                        for (const auto& c : l.corners) fs << "[:" << c[0] << c[1] << c[2] << "]";
+                        fs << "corners"
+                           << "[";
+                        for (const auto& c : l.corners)
+                            fs << "[:" << c[0] << c[1] << c[2] << "]";
                         fs << "]";
                         writeVec3(fs, "radiance", l.radiance);
                         break;
@@ -490,7 +517,9 @@ void Scene::write(const std::string& path) const {
         }
         writeObjects(fs, "objects", base, objects);
         writeObjects(fs, "proxies", base, proxies);
-        fs << "render" << "{" << "spp" << render.spp << "max_depth" << render.max_depth;
+        fs << "render"
+           << "{"
+           << "spp" << render.spp << "max_depth" << render.max_depth;
         // FileStorage stores 32-bit integers; larger seeds go out as reals (exact to 2^53).
         if (render.seed <= 0x7fffffffu)
             fs << "seed" << (int)render.seed;

@@ -3,9 +3,9 @@
 
 #include <algorithm>
 #include <cctype>
-#include <filesystem>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 
 #include <opencv2/imgcodecs.hpp>
@@ -25,7 +25,8 @@ static std::string lower(std::string s) {
 }
 
 static bool isImageExtension(const std::string& ext) {
-    static const char* exts[] = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".exr", ".ppm", ".pgm", ".webp"};
+    static const char* exts[] = {".png", ".jpg", ".jpeg", ".tif", ".tiff",
+                                 ".bmp", ".exr", ".ppm",  ".pgm", ".webp"};
     const std::string e = lower(ext);
     for (const char* x : exts)
         if (e == x) return true;
@@ -35,10 +36,12 @@ static bool isImageExtension(const std::string& ext) {
 // The last run of digits in a file's stem, or -1.
 static long long frameNumber(const std::string& stem) {
     int end = (int)stem.size() - 1;
-    while (end >= 0 && !std::isdigit((unsigned char)stem[end])) --end;
+    while (end >= 0 && !std::isdigit((unsigned char)stem[end]))
+        --end;
     if (end < 0) return -1;
     int begin = end;
-    while (begin > 0 && std::isdigit((unsigned char)stem[begin - 1])) --begin;
+    while (begin > 0 && std::isdigit((unsigned char)stem[begin - 1]))
+        --begin;
     return std::stoll(stem.substr(begin, std::min(18, end - begin + 1)));
 }
 
@@ -50,8 +53,10 @@ static Mat toBgr8(const Mat& m, const std::string& name) {
         else
             CV_Error(Error::StsBadArg, "'" + name + "': only 8- and 16-bit frames are supported");
     }
-    if (out.channels() == 1) cvtColor(out, out, COLOR_GRAY2BGR);
-    else if (out.channels() == 4) cvtColor(out, out, COLOR_BGRA2BGR);
+    if (out.channels() == 1)
+        cvtColor(out, out, COLOR_GRAY2BGR);
+    else if (out.channels() == 4)
+        cvtColor(out, out, COLOR_BGRA2BGR);
     return out;
 }
 
@@ -73,17 +78,20 @@ struct VideoReader::Impl {
 // not available or says nothing.
 static bool probeDisplayRotation(const std::string& path, int& ccw) {
     std::string quoted = "'";
-    for (char c : path) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    for (char c : path)
+        quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
     quoted += "'";
-    const std::string cmd = "ffprobe -v error -select_streams v:0 -show_entries "
-                            "stream_side_data=rotation -of default=nw=1:nk=1 " +
-                            quoted + " 2>/dev/null";
+    const std::string cmd =
+        "ffprobe -v error -select_streams v:0 -show_entries "
+        "stream_side_data=rotation -of default=nw=1:nk=1 " +
+        quoted + " 2>/dev/null";
     FILE* p = ::popen(cmd.c_str(), "r");
     if (!p) return false;
     char buf[256];
     std::string out;
     size_t n;
-    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0)
+        out.append(buf, n);
     const int status = ::pclose(p);
     if (status != 0) return false;
     ccw = 0;
@@ -113,7 +121,8 @@ VideoReader::VideoReader(const std::string& source) : impl_(new Impl) {
         if (items.empty())
             CV_Error(Error::StsError, "folder '" + source + "' holds no images (png, jpg, tif, …)");
         std::sort(items.begin(), items.end());
-        for (auto& it : items) m.files.push_back(it.second);
+        for (auto& it : items)
+            m.files.push_back(it.second);
         std::ifstream fpsf((fs::path(source) / "fps.txt").string());
         double f = 0;
         if (fpsf >> f && f > 0) m.fps = f;
@@ -138,7 +147,8 @@ VideoReader::VideoReader(const std::string& source) : impl_(new Impl) {
     if (!m.files.empty()) {
         m.count = (int)m.files.size();
         Mat first = imread(m.files[0], IMREAD_UNCHANGED);
-        if (first.empty()) CV_Error(Error::StsError, "'" + m.files[0] + "' is not a readable image");
+        if (first.empty())
+            CV_Error(Error::StsError, "'" + m.files[0] + "' is not a readable image");
         m.pending = toBgr8(first, m.files[0]);
         m.has_pending = true;
         m.size = m.pending.size();
@@ -149,11 +159,12 @@ VideoReader::VideoReader(const std::string& source) : impl_(new Impl) {
     // FFmpeg 5 no longer exports, so the display matrix is asked of ffprobe and the rotation
     // applied here; OpenCV's own auto-rotation is the fallback when ffprobe is missing.
     if (!m.cap.open(source, CAP_FFMPEG) && !m.cap.open(source, CAP_ANY))
-        CV_Error(Error::StsError, "'" + source + "' is not a readable video (no decoder opened it)");
+        CV_Error(Error::StsError,
+                 "'" + source + "' is not a readable video (no decoder opened it)");
     int ccw = 0;
     if (probeDisplayRotation(source, ccw)) {
         m.cap.set(CAP_PROP_ORIENTATION_AUTO, 0);
-        m.rotate_code = ccw == 90 ? ROTATE_90_COUNTERCLOCKWISE
+        m.rotate_code = ccw == 90    ? ROTATE_90_COUNTERCLOCKWISE
                         : ccw == 180 ? ROTATE_180
                         : ccw == 270 ? ROTATE_90_CLOCKWISE
                                      : -1;
@@ -192,8 +203,9 @@ bool VideoReader::read(OutputArray frame) {
         if (f.empty()) CV_Error(Error::StsError, "'" + name + "' is not a readable image");
         f = toBgr8(f, name);
         if (f.size() != m.size)
-            CV_Error(Error::StsError, format("'%s' is %dx%d, but the sequence is %dx%d", name.c_str(),
-                                             f.cols, f.rows, m.size.width, m.size.height));
+            CV_Error(Error::StsError,
+                     format("'%s' is %dx%d, but the sequence is %dx%d", name.c_str(), f.cols,
+                            f.rows, m.size.width, m.size.height));
     } else {
         if (!m.cap.read(f) || f.empty()) return false;
         f = toBgr8(f, m.source);
@@ -204,11 +216,21 @@ bool VideoReader::read(OutputArray frame) {
     return true;
 }
 
-double VideoReader::fps() const { return impl_->fps; }
-Size VideoReader::frameSize() const { return impl_->size; }
-int VideoReader::frameCount() const { return impl_->count; }
-int VideoReader::position() const { return impl_->pos; }
-bool VideoReader::isImageSequence() const { return !impl_->files.empty(); }
+double VideoReader::fps() const {
+    return impl_->fps;
+}
+Size VideoReader::frameSize() const {
+    return impl_->size;
+}
+int VideoReader::frameCount() const {
+    return impl_->count;
+}
+int VideoReader::position() const {
+    return impl_->pos;
+}
+bool VideoReader::isImageSequence() const {
+    return !impl_->files.empty();
+}
 
 // ---------------------------------------------------------------- VideoSink
 
@@ -244,7 +266,8 @@ VideoSink::VideoSink(const std::string& path, double fps, Size size, bool color)
     const std::string ext = lower(fs::path(path).extension().string());
     std::vector<int> fourccs;
     if (ext == ".mp4" || ext == ".mov" || ext == ".m4v")
-        fourccs = {VideoWriter::fourcc('a', 'v', 'c', '1'), VideoWriter::fourcc('m', 'p', '4', 'v')};
+        fourccs = {VideoWriter::fourcc('a', 'v', 'c', '1'),
+                   VideoWriter::fourcc('m', 'p', '4', 'v')};
     else if (ext == ".mkv" || ext == ".avi")
         fourccs = {VideoWriter::fourcc('F', 'F', 'V', '1')};
     else
@@ -269,9 +292,9 @@ void VideoSink::write(InputArray _frame) {
     CV_Assert(!m.closed);
     Mat frame = _frame.getMat();
     if (frame.size() != m.size || frame.type() != (m.color ? CV_8UC3 : CV_8UC1))
-        CV_Error(Error::StsBadArg, format("frame %d has size %dx%d type %d, expected %dx%d %s", m.count,
-                                          frame.cols, frame.rows, frame.type(), m.size.width,
-                                          m.size.height, m.color ? "8UC3" : "8UC1"));
+        CV_Error(Error::StsBadArg, format("frame %d has size %dx%d type %d, expected %dx%d %s",
+                                          m.count, frame.cols, frame.rows, frame.type(),
+                                          m.size.width, m.size.height, m.color ? "8UC3" : "8UC1"));
     if (m.sequence)
         imwriteAtomic(format(m.path.c_str(), m.count), frame);
     else
@@ -288,7 +311,9 @@ void VideoSink::close() {
     m.file->commit();
 }
 
-int VideoSink::count() const { return impl_->count; }
+int VideoSink::count() const {
+    return impl_->count;
+}
 
 }  // namespace vbme
 }  // namespace cv

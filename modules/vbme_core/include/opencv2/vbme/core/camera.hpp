@@ -20,10 +20,10 @@ to pixels by K. Pixel centres sit at integer coordinates, so the image centre of
 fromColmapPrincipalPoint() at that boundary. Rendering at another size scales K with scaled().
 */
 struct CV_EXPORTS Camera {
-    Matx33d K = Matx33d::eye();  //!< intrinsics: fx, fy, skew, cx, cy
-    Matx33d R = Matx33d::eye();  //!< rotation of cam_from_world
-    Vec3d t = Vec3d(0, 0, 0);    //!< translation of cam_from_world
-    Size image_size;             //!< image size in pixels (width, height)
+    Matx33d K = Matx33d::eye();          //!< intrinsics: fx, fy, skew, cx, cy
+    Matx33d R = Matx33d::eye();          //!< rotation of cam_from_world
+    Vec3d t = Vec3d(0, 0, 0);            //!< translation of cam_from_world
+    Size image_size;                     //!< image size in pixels (width, height)
     Response response = Response::SRGB;  //!< how the footage was display-encoded
 
     /** @brief A camera with focal length @p f (pixels) and the principal point at the centre

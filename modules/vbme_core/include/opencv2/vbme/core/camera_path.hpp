@@ -29,14 +29,14 @@ struct CV_EXPORTS CameraPath {
     };
     /** @brief One frame's pose. */
     struct Frame {
-        int index = 0;                //!< video frame index (0-based)
-        Matx33d R = Matx33d::eye();   //!< rotation of cam_from_world
-        Vec3d t = Vec3d(0, 0, 0);     //!< translation of cam_from_world
-        Source source = SFM;          //!< provenance
+        int index = 0;               //!< video frame index (0-based)
+        Matx33d R = Matx33d::eye();  //!< rotation of cam_from_world
+        Vec3d t = Vec3d(0, 0, 0);    //!< translation of cam_from_world
+        Source source = SFM;         //!< provenance
     };
-    Matx33d K = Matx33d::eye();   //!< shared intrinsics
-    Size image_size;              //!< image size (written when known)
-    std::vector<Frame> frames;    //!< one per video frame, in order
+    Matx33d K = Matx33d::eye();  //!< shared intrinsics
+    Size image_size;             //!< image size (written when known)
+    std::vector<Frame> frames;   //!< one per video frame, in order
 
     /** @brief The Camera of frame @p i (K, image size and pose). */
     Camera camera(size_t i) const;

@@ -32,19 +32,19 @@ struct CV_EXPORTS Material {
         PLASTIC,        //!< `albedo, ior, roughness`
         EMISSIVE        //!< `radiance`
     };
-    Type type = LAMBERTIAN;            //!< the model
+    Type type = LAMBERTIAN;               //!< the model
     Vec3d albedo = Vec3d(0.8, 0.8, 0.8);  //!< lambertian / plastic diffuse colour
-    Vec3d kd = Vec3d(0.5, 0.5, 0.5);   //!< phong / cook_torrance diffuse colour
-    Vec3d ks = Vec3d(0.5, 0.5, 0.5);   //!< phong / cook_torrance specular colour
-    double exponent = 50;              //!< phong exponent
-    double roughness = 0;              //!< microfacet α
-    double ior = 1.5;                  //!< index of refraction (dielectric, plastic, cook_torrance)
-    Vec3d eta = Vec3d(0, 0, 0);        //!< conductor complex IOR, real part (RGB)
-    Vec3d k = Vec3d(0, 0, 0);          //!< conductor complex IOR, imaginary part (RGB)
-    bool use_colour = false;           //!< conductor given by reflectance `colour` instead of eta/k
-    Vec3d colour = Vec3d(1, 1, 1);     //!< conductor reflectance at normal incidence
-    Vec3d absorption = Vec3d(0, 0, 0); //!< dielectric Beer–Lambert absorption per metre
-    Vec3d radiance = Vec3d(0, 0, 0);   //!< emissive radiance
+    Vec3d kd = Vec3d(0.5, 0.5, 0.5);      //!< phong / cook_torrance diffuse colour
+    Vec3d ks = Vec3d(0.5, 0.5, 0.5);      //!< phong / cook_torrance specular colour
+    double exponent = 50;                 //!< phong exponent
+    double roughness = 0;                 //!< microfacet α
+    double ior = 1.5;               //!< index of refraction (dielectric, plastic, cook_torrance)
+    Vec3d eta = Vec3d(0, 0, 0);     //!< conductor complex IOR, real part (RGB)
+    Vec3d k = Vec3d(0, 0, 0);       //!< conductor complex IOR, imaginary part (RGB)
+    bool use_colour = false;        //!< conductor given by reflectance `colour` instead of eta/k
+    Vec3d colour = Vec3d(1, 1, 1);  //!< conductor reflectance at normal incidence
+    Vec3d absorption = Vec3d(0, 0, 0);  //!< dielectric Beer–Lambert absorption per metre
+    Vec3d radiance = Vec3d(0, 0, 0);    //!< emissive radiance
 
     /** @brief Named presets: chrome, gold, copper, silver, mirror, glass, ice, blue, red,
     matte, white. Throws cv::Exception listing them for an unknown name. */
@@ -94,10 +94,10 @@ struct CV_EXPORTS Light {
 
 /** @brief A mesh placed in the world: an object to insert or a proxy of a real thing. */
 struct CV_EXPORTS SceneObject {
-    std::string mesh;                              //!< mesh file (absolute path once read)
-    Matx44d world_from_object = Matx44d::eye();   //!< placement
-    bool has_material = false;                     //!< false: the mesh's own MTL materials
-    Material material;                             //!< override material when has_material
+    std::string mesh;                            //!< mesh file (absolute path once read)
+    Matx44d world_from_object = Matx44d::eye();  //!< placement
+    bool has_material = false;                   //!< false: the mesh's own MTL materials
+    Material material;                           //!< override material when has_material
 };
 
 /** @brief The room box, axis-aligned in world coordinates. */
@@ -112,9 +112,9 @@ struct CV_EXPORTS Room {
 
 /** @brief Render settings of the scene file. */
 struct CV_EXPORTS RenderSettings {
-    int spp = 32;        //!< samples per pixel
-    int max_depth = 8;   //!< maximum path length
-    uint64 seed = 0;     //!< seed of the deterministic sampler
+    int spp = 32;       //!< samples per pixel
+    int max_depth = 8;  //!< maximum path length
+    uint64 seed = 0;    //!< seed of the deterministic sampler
 };
 
 /** @brief A frame's scene: the contract between calibrate, track-camera, render and insert.
@@ -124,14 +124,14 @@ relative to the file (absolute allowed); read() turns them into absolute paths, 
 them relative to the new file where they lie below its folder.
 */
 struct CV_EXPORTS Scene {
-    Size image_size;                    //!< image size of the camera
-    Camera camera;                      //!< camera of this frame
-    bool has_room = false;              //!< whether `room` is present
-    Room room;                          //!< the room box
-    std::vector<Light> lights;          //!< light sources
-    std::vector<SceneObject> objects;   //!< synthetic objects being inserted
-    std::vector<SceneObject> proxies;   //!< stand-ins for real geometry (in both passes)
-    RenderSettings render;              //!< render settings
+    Size image_size;                   //!< image size of the camera
+    Camera camera;                     //!< camera of this frame
+    bool has_room = false;             //!< whether `room` is present
+    Room room;                         //!< the room box
+    std::vector<Light> lights;         //!< light sources
+    std::vector<SceneObject> objects;  //!< synthetic objects being inserted
+    std::vector<SceneObject> proxies;  //!< stand-ins for real geometry (in both passes)
+    RenderSettings render;             //!< render settings
 
     /** @brief Reads a scene file. Throws cv::Exception naming the file and field at fault. */
     static Scene read(const std::string& path);
