@@ -1,0 +1,54 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see
+// LICENSE).
+#ifndef OPENCV_VBME_CALIB_SYNTHETIC_SEQUENCE_HPP
+#define OPENCV_VBME_CALIB_SYNTHETIC_SEQUENCE_HPP
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/vbme/core.hpp>
+
+namespace cv {
+namespace vbme {
+
+//! @addtogroup vbme_calib
+//! @{
+
+/** @brief Procedural textures for the six faces of a room (8-bit BGR,
+display-encoded), keyed by face name: blotchy multi-scale colour noise under
+random discs, boxes and strokes, rich in corners and blobs so that feature-based
+structure-from-motion can follow a camera. Deterministic in @p seed. */
+CV_EXPORTS std::map<std::string, Mat> makeRoomTextures(int seed = 1,
+                                                       int size = 1024);
+
+/** @brief Renders a textured box room as seen from inside by @p camera: every
+pixel's ray is intersected with the box (exact), the face texture is sampled
+bilinearly, @p supersample² rays per pixel are averaged. Albedo only (no
+lighting): an exact image for camera-tracking tests.
+
+Texture orientation (looking at the face from inside the room is irrelevant:
+coordinates are world axes): floor and ceiling map x → columns, y → rows upwards
+(row 0 at y = max); left and right walls map y → columns, z → rows upwards;
+front and back walls map x → columns, z → rows upwards. Faces without a texture
+are mid-grey.
+@return 8-bit BGR image of camera.image_size. */
+CV_EXPORTS Mat renderTexturedRoom(const Camera &camera, const Room &room,
+                                  const std::map<std::string, Mat> &textures,
+                                  int supersample = 2);
+
+/** @brief A hand-held camera path starting at @p first: a smooth walk of about
+@p travel metres (sideways and forwards) with slow panning, plus hand shake
+(random, band-limited) of @p shake_m metres and @p shake_deg degrees.
+Deterministic in @p seed. */
+CV_EXPORTS std::vector<Camera>
+handheldCameraPath(const Camera &first, int frames, double travel = 1.5,
+                   double shake_m = 0.01, double shake_deg = 0.5, int seed = 1);
+
+//! @}
+
+} // namespace vbme
+} // namespace cv
+
+#endif
