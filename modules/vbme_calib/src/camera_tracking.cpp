@@ -18,382 +18,333 @@ namespace fs = std::filesystem;
 namespace cv {
 namespace vbme {
 
-double boxDepthAt(const Camera &cam, const Room &room, const Point2d &px,
-                  int *face) {
-  const Vec3d c = cam.center();
-  const Vec3d d_cam =
-      cam.K.inv() * Vec3d(px.x, px.y, 1.0); // z = 1: t is the depth
-  const Vec3d d = cam.R.t() * d_cam;
-  double best = std::numeric_limits<double>::infinity();
-  int best_face = -1;
-  for (int a = 0; a < 3; ++a) {
-    if (d[a] == 0)
-      continue;
-    const double t = ((d[a] > 0 ? room.max[a] : room.min[a]) - c[a]) / d[a];
-    if (t > 0 && t < best) {
-      best = t;
-      best_face = a == 2   ? (d[a] > 0 ? 1 : 0)
-                  : a == 0 ? (d[a] > 0 ? 3 : 2)
-                           : (d[a] > 0 ? 5 : 4);
+double boxDepthAt(const Camera& cam, const Room& room, const Point2d& px, int* face) {
+    const Vec3d c = cam.center();
+    const Vec3d d_cam = cam.K.inv() * Vec3d(px.x, px.y, 1.0);  // z = 1: t is the depth
+    const Vec3d d = cam.R.t() * d_cam;
+    double best = std::numeric_limits<double>::infinity();
+    int best_face = -1;
+    for (int a = 0; a < 3; ++a) {
+        if (d[a] == 0) continue;
+        const double t = ((d[a] > 0 ? room.max[a] : room.min[a]) - c[a]) / d[a];
+        if (t > 0 && t < best) {
+            best = t;
+            best_face = a == 2   ? (d[a] > 0 ? 1 : 0)
+                        : a == 0 ? (d[a] > 0 ? 3 : 2)
+                                 : (d[a] > 0 ? 5 : 4);
+        }
     }
-  }
-  if (face)
-    *face = best_face;
-  return best;
+    if (face) *face = best_face;
+    return best;
 }
 
-static ScaleEstimate summarise(const std::vector<double> &r,
-                               const std::vector<double> &w, int total) {
-  ScaleEstimate s;
-  s.total = total;
-  s.used = (int)r.size();
-  if (r.empty())
+static ScaleEstimate summarise(const std::vector<double>& r, const std::vector<double>& w,
+                               int total) {
+    ScaleEstimate s;
+    s.total = total;
+    s.used = (int)r.size();
+    if (r.empty()) return s;
+    double sw = 0, m = 0;
+    for (size_t i = 0; i < r.size(); ++i)
+        sw += w[i], m += w[i] * r[i];
+    m /= sw;
+    double var = 0;
+    for (size_t i = 0; i < r.size(); ++i)
+        var += w[i] * (r[i] - m) * (r[i] - m);
+    s.scale = m;
+    s.spread = std::sqrt(var / sw) / m;
     return s;
-  double sw = 0, m = 0;
-  for (size_t i = 0; i < r.size(); ++i)
-    sw += w[i], m += w[i] * r[i];
-  m /= sw;
-  double var = 0;
-  for (size_t i = 0; i < r.size(); ++i)
-    var += w[i] * (r[i] - m) * (r[i] - m);
-  s.scale = m;
-  s.spread = std::sqrt(var / sw) / m;
-  return s;
 }
 
-ScaleEstimate scaleEq53(const std::vector<double> &box,
-                        const std::vector<double> &sfm) {
-  CV_Assert(box.size() == sfm.size());
-  std::vector<double> r, w;
-  for (size_t i = 0; i < box.size(); ++i)
-    if (sfm[i] > 0 && std::isfinite(box[i]))
-      r.push_back(box[i] / sfm[i]), w.push_back(1);
-  return summarise(r, w, (int)box.size());
+ScaleEstimate scaleEq53(const std::vector<double>& box, const std::vector<double>& sfm) {
+    CV_Assert(box.size() == sfm.size());
+    std::vector<double> r, w;
+    for (size_t i = 0; i < box.size(); ++i)
+        if (sfm[i] > 0 && std::isfinite(box[i])) r.push_back(box[i] / sfm[i]), w.push_back(1);
+    return summarise(r, w, (int)box.size());
 }
 
-ScaleEstimate scaleRobust(const std::vector<double> &box,
-                          const std::vector<double> &sfm,
-                          const std::vector<double> &errors, double tolerance) {
-  CV_Assert(box.size() == sfm.size() &&
-            (errors.empty() || errors.size() == box.size()));
-  std::vector<double> all;
-  for (size_t i = 0; i < box.size(); ++i)
-    if (sfm[i] > 0 && std::isfinite(box[i]))
-      all.push_back(box[i] / sfm[i]);
-  if (all.empty())
-    return summarise({}, {}, (int)box.size());
-  std::vector<double> sorted = all;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2,
-                   sorted.end());
-  const double med = sorted[sorted.size() / 2];
-  std::vector<double> r, w;
-  for (size_t i = 0; i < box.size(); ++i) {
-    if (!(sfm[i] > 0 && std::isfinite(box[i])))
-      continue;
-    const double ratio = box[i] / sfm[i];
-    if (std::abs(ratio - med) > tolerance * med)
-      continue;
-    r.push_back(ratio);
-    w.push_back(errors.empty() ? 1.0 : 1.0 / (errors[i] + 0.5));
-  }
-  return summarise(r, w, (int)box.size());
+ScaleEstimate scaleRobust(const std::vector<double>& box, const std::vector<double>& sfm,
+                          const std::vector<double>& errors, double tolerance) {
+    CV_Assert(box.size() == sfm.size() && (errors.empty() || errors.size() == box.size()));
+    std::vector<double> all;
+    for (size_t i = 0; i < box.size(); ++i)
+        if (sfm[i] > 0 && std::isfinite(box[i])) all.push_back(box[i] / sfm[i]);
+    if (all.empty()) return summarise({}, {}, (int)box.size());
+    std::vector<double> sorted = all;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    const double med = sorted[sorted.size() / 2];
+    std::vector<double> r, w;
+    for (size_t i = 0; i < box.size(); ++i) {
+        if (!(sfm[i] > 0 && std::isfinite(box[i]))) continue;
+        const double ratio = box[i] / sfm[i];
+        if (std::abs(ratio - med) > tolerance * med) continue;
+        r.push_back(ratio);
+        w.push_back(errors.empty() ? 1.0 : 1.0 / (errors[i] + 0.5));
+    }
+    return summarise(r, w, (int)box.size());
 }
 
 namespace {
 
 Vec4d slerp(Vec4d a, Vec4d b, double t) {
-  double d = a.dot(b);
-  if (d < 0)
-    b = -b, d = -d;
-  if (d > 0.9995) {
-    Vec4d q = a + (b - a) * t;
-    return q * (1.0 / norm(q));
-  }
-  const double th = std::acos(d), s = std::sin(th);
-  return a * (std::sin((1 - t) * th) / s) + b * (std::sin(t * th) / s);
-}
-
-} // namespace
-
-CameraPath alignToRoom(const ColmapModel &model,
-                       const std::vector<std::string> &names,
-                       const Scene &frame0, const CameraTrackingOptions &opt,
-                       CameraTrackingReport *report) {
-  if (names.empty())
-    CV_Error(Error::StsBadArg, "alignToRoom: no frames");
-  if (!frame0.has_room)
-    CV_Error(
-        Error::StsBadArg,
-        "alignToRoom: the frame-0 scene has no room box (Eq. 5.3 needs it)");
-  const ColmapImage *im0 = model.imageByName(names[0]);
-  if (!im0)
-    CV_Error(Error::StsError,
-             "frame 0 ('" + names[0] +
-                 "') was not registered by structure-from-motion, so the track "
-                 "cannot be tied "
-                 "to the annotated room");
-  const Camera &cam0 = frame0.camera;
-
-  // Eq. 5.3: frame-0 features with a 3D point.
-  std::vector<double> box, sfm, err;
-  for (size_t k = 0; k < im0->xys.size(); ++k) {
-    const long long id = im0->point3d_ids[k];
-    if (id < 0)
-      continue;
-    auto it = model.points.find(id);
-    if (it == model.points.end())
-      continue;
-    const Point2d px(im0->xys[k].x - 0.5,
-                     im0->xys[k].y - 0.5); // COLMAP → vbme pixel centres
-    box.push_back(boxDepthAt(cam0, frame0.room, px));
-    sfm.push_back((im0->R * it->second.xyz + im0->t)[2]);
-    err.push_back(it->second.error);
-  }
-  const ScaleEstimate sc = opt.robust_scale
-                               ? scaleRobust(box, sfm, err, opt.scale_tolerance)
-                               : scaleEq53(box, sfm);
-  if (sc.used < 3)
-    CV_Error(Error::StsError, format("too few frame-0 features with a 3D point "
-                                     "to fix the scale (%d of %d usable)",
-                                     sc.used, sc.total));
-  const double s = sc.scale;
-
-  // world → model similarity from frame 0: M = R_0ᵀ R0w, c = R_0ᵀ (t0w − s
-  // t_0); then cam_i_from_world = (R_i M, R_i c + s t_i).
-  const Matx33d M = im0->R.t() * cam0.R;
-  const Vec3d c = im0->R.t() * (cam0.t - s * im0->t);
-
-  CameraPath path;
-  path.K = cam0.K;
-  path.image_size = frame0.image_size;
-  path.frames.resize(names.size());
-  std::vector<bool> have(names.size(), false);
-  int registered = 0;
-  for (size_t i = 0; i < names.size(); ++i) {
-    path.frames[i].index = (int)i;
-    const ColmapImage *im = model.imageByName(names[i]);
-    if (!im)
-      continue;
-    path.frames[i].R = im->R * M;
-    path.frames[i].t = im->R * c + s * im->t;
-    path.frames[i].source = CameraPath::SFM;
-    have[i] = true;
-    ++registered;
-  }
-  // Frames the model lacks: interpolate between registered neighbours, hold
-  // beyond the ends.
-  int interpolated = 0;
-  for (size_t i = 0; i < names.size(); ++i) {
-    if (have[i])
-      continue;
-    int a = (int)i - 1, b = (int)i + 1;
-    while (a >= 0 && !have[a])
-      --a;
-    while (b < (int)names.size() && !have[b])
-      ++b;
-    CameraPath::Frame &f = path.frames[i];
-    f.source = CameraPath::INTERPOLATED;
-    ++interpolated;
-    if (a < 0 || b >= (int)names.size()) {
-      const CameraPath::Frame &n = path.frames[a < 0 ? b : a];
-      f.R = n.R;
-      f.t = n.t;
-      continue;
+    double d = a.dot(b);
+    if (d < 0) b = -b, d = -d;
+    if (d > 0.9995) {
+        Vec4d q = a + (b - a) * t;
+        return q * (1.0 / norm(q));
     }
-    const double t = double((int)i - a) / (b - a);
-    const CameraPath::Frame &fa = path.frames[a], &fb = path.frames[b];
-    const Vec3d ca = -(fa.R.t() * fa.t), cb = -(fb.R.t() * fb.t);
-    f.R = rotationFromQuaternion(
-        slerp(quaternionFromRotation(fa.R), quaternionFromRotation(fb.R), t));
-    f.t = -(f.R * (ca + (cb - ca) * t));
-  }
-  if (report) {
-    report->frames = (int)names.size();
-    report->registered = registered;
-    report->interpolated = interpolated;
-    report->scale = sc;
-    double se = 0;
-    int n = 0;
-    for (const auto &kv : model.points)
-      se += kv.second.error * kv.second.error, ++n;
-    report->reprojection_rms = n ? std::sqrt(se / n) : 0;
-  }
-  return path;
+    const double th = std::acos(d), s = std::sin(th);
+    return a * (std::sin((1 - t) * th) / s) + b * (std::sin(t * th) / s);
 }
 
-CameraPath trackCameraFrames(const std::string &frames_dir,
-                             const std::vector<std::string> &names,
-                             const Scene &frame0, const std::string &work_dir,
-                             const CameraTrackingOptions &opt,
-                             CameraTrackingReport *report) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<ColmapModel> models = runColmapSfM(
-      frames_dir, work_dir, frame0.camera.K, frame0.image_size, opt.colmap);
-  // The model that holds frame 0 is the one tied to the annotation.
-  const ColmapModel *chosen = nullptr;
-  for (const auto &m : models)
-    if (m.imageByName(names.at(0))) {
-      chosen = &m;
-      break;
+}  // namespace
+
+CameraPath alignToRoom(const ColmapModel& model, const std::vector<std::string>& names,
+                       const Scene& frame0, const CameraTrackingOptions& opt,
+                       CameraTrackingReport* report) {
+    if (names.empty()) CV_Error(Error::StsBadArg, "alignToRoom: no frames");
+    if (!frame0.has_room)
+        CV_Error(Error::StsBadArg,
+                 "alignToRoom: the frame-0 scene has no room box (Eq. 5.3 needs it)");
+    const ColmapImage* im0 = model.imageByName(names[0]);
+    if (!im0)
+        CV_Error(Error::StsError,
+                 "frame 0 ('" + names[0] +
+                     "') was not registered by structure-from-motion, so the track "
+                     "cannot be tied "
+                     "to the annotated room");
+    const Camera& cam0 = frame0.camera;
+
+    // Eq. 5.3: frame-0 features with a 3D point.
+    std::vector<double> box, sfm, err;
+    for (size_t k = 0; k < im0->xys.size(); ++k) {
+        const long long id = im0->point3d_ids[k];
+        if (id < 0) continue;
+        auto it = model.points.find(id);
+        if (it == model.points.end()) continue;
+        const Point2d px(im0->xys[k].x - 0.5,
+                         im0->xys[k].y - 0.5);  // COLMAP → vbme pixel centres
+        box.push_back(boxDepthAt(cam0, frame0.room, px));
+        sfm.push_back((im0->R * it->second.xyz + im0->t)[2]);
+        err.push_back(it->second.error);
     }
-  if (!chosen)
-    CV_Error(Error::StsError, "COLMAP did not register frame 0 ('" + names[0] +
-                                  "') in any of its " +
-                                  std::to_string(models.size()) +
-                                  " model(s); see " + work_dir + "/colmap.log");
-  CameraTrackingReport r;
-  CameraPath path = alignToRoom(*chosen, names, frame0, opt, &r);
-  r.models = (int)models.size();
-  r.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)
-          .count();
-  if (report)
-    *report = r;
-  return path;
-}
+    const ScaleEstimate sc =
+        opt.robust_scale ? scaleRobust(box, sfm, err, opt.scale_tolerance) : scaleEq53(box, sfm);
+    if (sc.used < 3)
+        CV_Error(Error::StsError, format("too few frame-0 features with a 3D point "
+                                         "to fix the scale (%d of %d usable)",
+                                         sc.used, sc.total));
+    const double s = sc.scale;
 
-CameraPath trackCameraVideo(const std::string &video, const Scene &frame0,
-                            const std::string &work_dir,
-                            const CameraTrackingOptions &opt,
-                            CameraTrackingReport *report) {
-  if (opt.stride < 1)
-    CV_Error(Error::StsBadArg, "stride must be at least 1");
-  const auto t0 = std::chrono::steady_clock::now();
-  const fs::path work(work_dir), frames = work / "frames";
-  std::error_code ec;
-  fs::create_directories(frames, ec);
-  if (ec)
-    CV_Error(Error::StsError,
-             "cannot create '" + frames.string() + "': " + ec.message());
+    // world → model similarity from frame 0: M = R_0ᵀ R0w, c = R_0ᵀ (t0w − s
+    // t_0); then cam_i_from_world = (R_i M, R_i c + s t_i).
+    const Matx33d M = im0->R.t() * cam0.R;
+    const Vec3d c = im0->R.t() * (cam0.t - s * im0->t);
 
-  // 1. Frames (resumable: a marker records a complete extraction with its
-  // stride).
-  const fs::path marker = frames / "complete.txt";
-  std::vector<std::string> names;
-  int count = -1, stride = -1;
-  {
-    std::ifstream m(marker.string());
-    if (!(m >> count >> stride) || stride != opt.stride)
-      count = -1;
-  }
-  if (count > 0) {
-    for (int i = 0; i < count; ++i)
-      names.push_back(format("frame_%05d.png", i));
-  } else {
-    fs::remove(marker, ec);
-    VideoReader reader(video);
-    if (reader.frameSize() != frame0.image_size)
-      CV_Error(Error::StsBadArg,
-               format("the annotation is for %dx%d images but the video's "
-                      "frames are %dx%d",
-                      frame0.image_size.width, frame0.image_size.height,
-                      reader.frameSize().width, reader.frameSize().height));
-    Progress progress("extract frames", std::max(0, reader.frameCount()));
-    Mat f;
-    for (int i = 0; reader.read(f); ++i) {
-      names.push_back(format("frame_%05d.png", i));
-      if (i % opt.stride == 0)
-        imwriteAtomic((frames / names.back()).string(), f);
-      progress.tick();
+    CameraPath path;
+    path.K = cam0.K;
+    path.image_size = frame0.image_size;
+    path.frames.resize(names.size());
+    std::vector<bool> have(names.size(), false);
+    int registered = 0;
+    for (size_t i = 0; i < names.size(); ++i) {
+        path.frames[i].index = (int)i;
+        const ColmapImage* im = model.imageByName(names[i]);
+        if (!im) continue;
+        path.frames[i].R = im->R * M;
+        path.frames[i].t = im->R * c + s * im->t;
+        path.frames[i].source = CameraPath::SFM;
+        have[i] = true;
+        ++registered;
     }
-    progress.finish();
-    std::ofstream(marker.string()) << names.size() << " " << opt.stride << "\n";
-  }
-  if (names.empty())
-    CV_Error(Error::StsError, "'" + video + "' holds no frame");
-
-  // 2. COLMAP (resumable: reuse a completed run).
-  std::vector<ColmapModel> models;
-  const fs::path done = work / "colmap_complete.txt";
-  if (fs::exists(done, ec)) {
-    for (const auto &e : fs::directory_iterator(work / "sparse_txt", ec))
-      if (e.is_directory())
-        models.push_back(ColmapModel::readText(e.path().string()));
-  }
-  if (models.empty()) {
-    std::printf("camera tracking: running COLMAP on %zu frames (log: %s)\n",
-                (names.size() + opt.stride - 1) / opt.stride,
-                (work / "colmap.log").string().c_str());
-    std::fflush(stdout);
-    models = runColmapSfM(frames.string(), work_dir, frame0.camera.K,
-                          frame0.image_size, opt.colmap);
-    std::ofstream(done.string()) << models.size() << "\n";
-  }
-  const ColmapModel *chosen = nullptr;
-  for (const auto &m : models)
-    if (m.imageByName(names[0]))
-      chosen = chosen ? chosen : &m;
-  if (!chosen)
-    CV_Error(Error::StsError, "COLMAP did not register frame 0 in any of its " +
-                                  std::to_string(models.size()) +
-                                  " model(s); see " +
-                                  (work / "colmap.log").string());
-  CameraTrackingReport r;
-  CameraPath path = alignToRoom(*chosen, names, frame0, opt, &r);
-  r.models = (int)models.size();
-  r.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)
-          .count();
-  if (report)
-    *report = r;
-  return path;
+    // Frames the model lacks: interpolate between registered neighbours, hold
+    // beyond the ends.
+    int interpolated = 0;
+    for (size_t i = 0; i < names.size(); ++i) {
+        if (have[i]) continue;
+        int a = (int)i - 1, b = (int)i + 1;
+        while (a >= 0 && !have[a])
+            --a;
+        while (b < (int)names.size() && !have[b])
+            ++b;
+        CameraPath::Frame& f = path.frames[i];
+        f.source = CameraPath::INTERPOLATED;
+        ++interpolated;
+        if (a < 0 || b >= (int)names.size()) {
+            const CameraPath::Frame& n = path.frames[a < 0 ? b : a];
+            f.R = n.R;
+            f.t = n.t;
+            continue;
+        }
+        const double t = double((int)i - a) / (b - a);
+        const CameraPath::Frame &fa = path.frames[a], &fb = path.frames[b];
+        const Vec3d ca = -(fa.R.t() * fa.t), cb = -(fb.R.t() * fb.t);
+        f.R = rotationFromQuaternion(
+            slerp(quaternionFromRotation(fa.R), quaternionFromRotation(fb.R), t));
+        f.t = -(f.R * (ca + (cb - ca) * t));
+    }
+    if (report) {
+        report->frames = (int)names.size();
+        report->registered = registered;
+        report->interpolated = interpolated;
+        report->scale = sc;
+        double se = 0;
+        int n = 0;
+        for (const auto& kv : model.points)
+            se += kv.second.error * kv.second.error, ++n;
+        report->reprojection_rms = n ? std::sqrt(se / n) : 0;
+    }
+    return path;
 }
 
-void drawRoomBox(InputOutputArray _image, const Camera &cam, const Room &room,
-                 const Scalar &colour, const std::string &caption) {
-  Mat img = _image.getMat();
-  const Vec3d a = room.min, b = room.max;
-  const Vec3d corners[8] = {{a[0], a[1], a[2]}, {b[0], a[1], a[2]},
-                            {b[0], b[1], a[2]}, {a[0], b[1], a[2]},
-                            {a[0], a[1], b[2]}, {b[0], a[1], b[2]},
-                            {b[0], b[1], b[2]}, {a[0], b[1], b[2]}};
-  const int edges[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
-                            {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
-  const int thick = std::max(1, img.cols / 400), shift = 4;
-  for (const auto &e : edges) {
-    Vec3d p = cam.camFromWorld(corners[e[0]]),
-          q = cam.camFromWorld(corners[e[1]]);
-    const double near_z = 0.01;
-    if (p[2] < near_z && q[2] < near_z)
-      continue;
-    if (p[2] < near_z)
-      p = p + (q - p) * ((near_z - p[2]) / (q[2] - p[2]));
-    if (q[2] < near_z)
-      q = q + (p - q) * ((near_z - q[2]) / (p[2] - q[2]));
-    const Vec3d pp = cam.K * p, qq = cam.K * q;
-    auto fixedPt = [&](const Vec3d &h) {
-      const double lim = 1e5, x = std::max(-lim, std::min(lim, h[0] / h[2])),
-                   y = std::max(-lim, std::min(lim, h[1] / h[2]));
-      return Point(cvRound(x * (1 << shift)), cvRound(y * (1 << shift)));
-    };
-    line(img, fixedPt(pp), fixedPt(qq), colour, thick, LINE_AA, shift);
-  }
-  if (!caption.empty()) {
-    const double scale = std::max(0.4, img.cols / 1280.0);
-    putText(img, caption, Point(10, 10 + cvRound(22 * scale)),
-            FONT_HERSHEY_SIMPLEX, scale, Scalar(0, 0, 0), thick + 2, LINE_AA);
-    putText(img, caption, Point(10, 10 + cvRound(22 * scale)),
-            FONT_HERSHEY_SIMPLEX, scale, Scalar(255, 255, 255), thick, LINE_AA);
-  }
+CameraPath trackCameraFrames(const std::string& frames_dir, const std::vector<std::string>& names,
+                             const Scene& frame0, const std::string& work_dir,
+                             const CameraTrackingOptions& opt, CameraTrackingReport* report) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::vector<ColmapModel> models =
+        runColmapSfM(frames_dir, work_dir, frame0.camera.K, frame0.image_size, opt.colmap);
+    // The model that holds frame 0 is the one tied to the annotation.
+    const ColmapModel* chosen = nullptr;
+    for (const auto& m : models)
+        if (m.imageByName(names.at(0))) {
+            chosen = &m;
+            break;
+        }
+    if (!chosen)
+        CV_Error(Error::StsError, "COLMAP did not register frame 0 ('" + names[0] +
+                                      "') in any of its " + std::to_string(models.size()) +
+                                      " model(s); see " + work_dir + "/colmap.log");
+    CameraTrackingReport r;
+    CameraPath path = alignToRoom(*chosen, names, frame0, opt, &r);
+    r.models = (int)models.size();
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (report) *report = r;
+    return path;
 }
 
-ColmapModel toColmapModel(const CameraPath &path) {
-  ColmapModel m;
-  ColmapCamera cam;
-  cam.size = path.image_size;
-  cam.params = {path.K(0, 0), path.K(1, 1), path.K(0, 2) + 0.5,
-                path.K(1, 2) + 0.5};
-  m.cameras[1] = cam;
-  for (const auto &f : path.frames) {
-    ColmapImage im;
-    im.id = f.index + 1;
-    im.R = f.R;
-    im.t = f.t;
-    im.name = format("frame_%05d.png", f.index);
-    m.images[im.id] = im;
-  }
-  return m;
+CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
+                            const std::string& work_dir, const CameraTrackingOptions& opt,
+                            CameraTrackingReport* report) {
+    if (opt.stride < 1) CV_Error(Error::StsBadArg, "stride must be at least 1");
+    const auto t0 = std::chrono::steady_clock::now();
+    const fs::path work(work_dir), frames = work / "frames";
+    std::error_code ec;
+    fs::create_directories(frames, ec);
+    if (ec) CV_Error(Error::StsError, "cannot create '" + frames.string() + "': " + ec.message());
+
+    // 1. Frames (resumable: a marker records a complete extraction with its
+    // stride).
+    const fs::path marker = frames / "complete.txt";
+    std::vector<std::string> names;
+    int count = -1, stride = -1;
+    {
+        std::ifstream m(marker.string());
+        if (!(m >> count >> stride) || stride != opt.stride) count = -1;
+    }
+    if (count > 0) {
+        for (int i = 0; i < count; ++i)
+            names.push_back(format("frame_%05d.png", i));
+    } else {
+        fs::remove(marker, ec);
+        VideoReader reader(video);
+        if (reader.frameSize() != frame0.image_size)
+            CV_Error(Error::StsBadArg, format("the annotation is for %dx%d images but the video's "
+                                              "frames are %dx%d",
+                                              frame0.image_size.width, frame0.image_size.height,
+                                              reader.frameSize().width, reader.frameSize().height));
+        Progress progress("extract frames", std::max(0, reader.frameCount()));
+        Mat f;
+        for (int i = 0; reader.read(f); ++i) {
+            names.push_back(format("frame_%05d.png", i));
+            if (i % opt.stride == 0) imwriteAtomic((frames / names.back()).string(), f);
+            progress.tick();
+        }
+        progress.finish();
+        std::ofstream(marker.string()) << names.size() << " " << opt.stride << "\n";
+    }
+    if (names.empty()) CV_Error(Error::StsError, "'" + video + "' holds no frame");
+
+    // 2. COLMAP (resumable: reuse a completed run).
+    std::vector<ColmapModel> models;
+    const fs::path done = work / "colmap_complete.txt";
+    if (fs::exists(done, ec)) {
+        for (const auto& e : fs::directory_iterator(work / "sparse_txt", ec))
+            if (e.is_directory()) models.push_back(ColmapModel::readText(e.path().string()));
+    }
+    if (models.empty()) {
+        std::printf("camera tracking: running COLMAP on %zu frames (log: %s)\n",
+                    (names.size() + opt.stride - 1) / opt.stride,
+                    (work / "colmap.log").string().c_str());
+        std::fflush(stdout);
+        models =
+            runColmapSfM(frames.string(), work_dir, frame0.camera.K, frame0.image_size, opt.colmap);
+        std::ofstream(done.string()) << models.size() << "\n";
+    }
+    const ColmapModel* chosen = nullptr;
+    for (const auto& m : models)
+        if (m.imageByName(names[0])) chosen = chosen ? chosen : &m;
+    if (!chosen)
+        CV_Error(Error::StsError, "COLMAP did not register frame 0 in any of its " +
+                                      std::to_string(models.size()) + " model(s); see " +
+                                      (work / "colmap.log").string());
+    CameraTrackingReport r;
+    CameraPath path = alignToRoom(*chosen, names, frame0, opt, &r);
+    r.models = (int)models.size();
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (report) *report = r;
+    return path;
 }
 
-} // namespace vbme
-} // namespace cv
+void drawRoomBox(InputOutputArray _image, const Camera& cam, const Room& room, const Scalar& colour,
+                 const std::string& caption) {
+    Mat img = _image.getMat();
+    const Vec3d a = room.min, b = room.max;
+    const Vec3d corners[8] = {{a[0], a[1], a[2]}, {b[0], a[1], a[2]}, {b[0], b[1], a[2]},
+                              {a[0], b[1], a[2]}, {a[0], a[1], b[2]}, {b[0], a[1], b[2]},
+                              {b[0], b[1], b[2]}, {a[0], b[1], b[2]}};
+    const int edges[12][2] = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6},
+                              {6, 7}, {7, 4}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+    const int thick = std::max(1, img.cols / 400), shift = 4;
+    for (const auto& e : edges) {
+        Vec3d p = cam.camFromWorld(corners[e[0]]), q = cam.camFromWorld(corners[e[1]]);
+        const double near_z = 0.01;
+        if (p[2] < near_z && q[2] < near_z) continue;
+        if (p[2] < near_z) p = p + (q - p) * ((near_z - p[2]) / (q[2] - p[2]));
+        if (q[2] < near_z) q = q + (p - q) * ((near_z - q[2]) / (p[2] - q[2]));
+        const Vec3d pp = cam.K * p, qq = cam.K * q;
+        auto fixedPt = [&](const Vec3d& h) {
+            const double lim = 1e5, x = std::max(-lim, std::min(lim, h[0] / h[2])),
+                         y = std::max(-lim, std::min(lim, h[1] / h[2]));
+            return Point(cvRound(x * (1 << shift)), cvRound(y * (1 << shift)));
+        };
+        line(img, fixedPt(pp), fixedPt(qq), colour, thick, LINE_AA, shift);
+    }
+    if (!caption.empty()) {
+        const double scale = std::max(0.4, img.cols / 1280.0);
+        putText(img, caption, Point(10, 10 + cvRound(22 * scale)), FONT_HERSHEY_SIMPLEX, scale,
+                Scalar(0, 0, 0), thick + 2, LINE_AA);
+        putText(img, caption, Point(10, 10 + cvRound(22 * scale)), FONT_HERSHEY_SIMPLEX, scale,
+                Scalar(255, 255, 255), thick, LINE_AA);
+    }
+}
+
+ColmapModel toColmapModel(const CameraPath& path) {
+    ColmapModel m;
+    ColmapCamera cam;
+    cam.size = path.image_size;
+    cam.params = {path.K(0, 0), path.K(1, 1), path.K(0, 2) + 0.5, path.K(1, 2) + 0.5};
+    m.cameras[1] = cam;
+    for (const auto& f : path.frames) {
+        ColmapImage im;
+        im.id = f.index + 1;
+        im.R = f.R;
+        im.t = f.t;
+        im.name = format("frame_%05d.png", f.index);
+        m.images[im.id] = im;
+    }
+    return m;
+}
+
+}  // namespace vbme
+}  // namespace cv

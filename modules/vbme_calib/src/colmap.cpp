@@ -15,311 +15,282 @@ namespace fs = std::filesystem;
 namespace cv {
 namespace vbme {
 
-Matx33d rotationFromQuaternion(const Vec4d &q_in) {
-  const double n = norm(q_in);
-  CV_Assert(n > 0);
-  const Vec4d q = q_in * (1.0 / n);
-  const double w = q[0], x = q[1], y = q[2], z = q[3];
-  return Matx33d(
-      1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
-      2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-      2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y));
+Matx33d rotationFromQuaternion(const Vec4d& q_in) {
+    const double n = norm(q_in);
+    CV_Assert(n > 0);
+    const Vec4d q = q_in * (1.0 / n);
+    const double w = q[0], x = q[1], y = q[2], z = q[3];
+    return Matx33d(1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+                   2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+                   2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y));
 }
 
-Vec4d quaternionFromRotation(const Matx33d &R) {
-  // Shepperd's method: the largest of the four candidates keeps the division
-  // well conditioned.
-  const double tr = R(0, 0) + R(1, 1) + R(2, 2);
-  Vec4d q;
-  if (tr > 0) {
-    const double s = std::sqrt(tr + 1.0) * 2;
-    q = Vec4d(0.25 * s, (R(2, 1) - R(1, 2)) / s, (R(0, 2) - R(2, 0)) / s,
-              (R(1, 0) - R(0, 1)) / s);
-  } else if (R(0, 0) > R(1, 1) && R(0, 0) > R(2, 2)) {
-    const double s = std::sqrt(1.0 + R(0, 0) - R(1, 1) - R(2, 2)) * 2;
-    q = Vec4d((R(2, 1) - R(1, 2)) / s, 0.25 * s, (R(0, 1) + R(1, 0)) / s,
-              (R(0, 2) + R(2, 0)) / s);
-  } else if (R(1, 1) > R(2, 2)) {
-    const double s = std::sqrt(1.0 + R(1, 1) - R(0, 0) - R(2, 2)) * 2;
-    q = Vec4d((R(0, 2) - R(2, 0)) / s, (R(0, 1) + R(1, 0)) / s, 0.25 * s,
-              (R(1, 2) + R(2, 1)) / s);
-  } else {
-    const double s = std::sqrt(1.0 + R(2, 2) - R(0, 0) - R(1, 1)) * 2;
-    q = Vec4d((R(1, 0) - R(0, 1)) / s, (R(0, 2) + R(2, 0)) / s,
-              (R(1, 2) + R(2, 1)) / s, 0.25 * s);
-  }
-  q *= 1.0 / norm(q);
-  if (q[0] < 0)
-    q = -q;
-  return q;
+Vec4d quaternionFromRotation(const Matx33d& R) {
+    // Shepperd's method: the largest of the four candidates keeps the division
+    // well conditioned.
+    const double tr = R(0, 0) + R(1, 1) + R(2, 2);
+    Vec4d q;
+    if (tr > 0) {
+        const double s = std::sqrt(tr + 1.0) * 2;
+        q = Vec4d(0.25 * s, (R(2, 1) - R(1, 2)) / s, (R(0, 2) - R(2, 0)) / s,
+                  (R(1, 0) - R(0, 1)) / s);
+    } else if (R(0, 0) > R(1, 1) && R(0, 0) > R(2, 2)) {
+        const double s = std::sqrt(1.0 + R(0, 0) - R(1, 1) - R(2, 2)) * 2;
+        q = Vec4d((R(2, 1) - R(1, 2)) / s, 0.25 * s, (R(0, 1) + R(1, 0)) / s,
+                  (R(0, 2) + R(2, 0)) / s);
+    } else if (R(1, 1) > R(2, 2)) {
+        const double s = std::sqrt(1.0 + R(1, 1) - R(0, 0) - R(2, 2)) * 2;
+        q = Vec4d((R(0, 2) - R(2, 0)) / s, (R(0, 1) + R(1, 0)) / s, 0.25 * s,
+                  (R(1, 2) + R(2, 1)) / s);
+    } else {
+        const double s = std::sqrt(1.0 + R(2, 2) - R(0, 0) - R(1, 1)) * 2;
+        q = Vec4d((R(1, 0) - R(0, 1)) / s, (R(0, 2) + R(2, 0)) / s, (R(1, 2) + R(2, 1)) / s,
+                  0.25 * s);
+    }
+    q *= 1.0 / norm(q);
+    if (q[0] < 0) q = -q;
+    return q;
 }
 
 namespace {
 
 // Lines of a COLMAP text file without comments and blank lines, with their line
 // numbers.
-std::vector<std::pair<int, std::string>> dataLines(const std::string &path) {
-  std::ifstream f(path);
-  if (!f)
-    CV_Error(Error::StsError, "cannot read COLMAP file '" + path + "'");
-  std::vector<std::pair<int, std::string>> out;
-  std::string line;
-  int n = 0;
-  while (std::getline(f, line)) {
-    ++n;
-    const size_t p = line.find_first_not_of(" \t\r");
-    if (p == std::string::npos || line[p] == '#')
-      continue;
-    out.emplace_back(n, line);
-  }
-  return out;
-}
-
-[[noreturn]] void parseError(const std::string &path, int line,
-                             const std::string &what) {
-  CV_Error(Error::StsParseError,
-           format("%s:%d: %s", path.c_str(), line, what.c_str()));
-}
-
-} // namespace
-
-ColmapModel ColmapModel::readText(const std::string &dir) {
-  ColmapModel m;
-  const std::string cam_path = (fs::path(dir) / "cameras.txt").string();
-  for (const auto &[n, line] : dataLines(cam_path)) {
-    std::istringstream s(line);
-    ColmapCamera c;
-    if (!(s >> c.id >> c.model >> c.size.width >> c.size.height))
-      parseError(cam_path, n, "expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]");
-    double v;
-    while (s >> v)
-      c.params.push_back(v);
-    m.cameras[c.id] = c;
-  }
-  const std::string img_path = (fs::path(dir) / "images.txt").string();
-  // Two lines per image; the second (keypoints) may be empty, which dataLines()
-  // would drop, so the raw file is read to keep the pairing right.
-  std::ifstream f(img_path);
-  if (!f)
-    CV_Error(Error::StsError, "cannot read COLMAP file '" + img_path + "'");
-  std::string line;
-  int n = 0;
-  while (std::getline(f, line)) {
-    ++n;
-    const size_t p = line.find_first_not_of(" \t\r");
-    if (p == std::string::npos || line[p] == '#')
-      continue;
-    std::istringstream s(line);
-    ColmapImage im;
-    Vec4d q;
-    if (!(s >> im.id >> q[0] >> q[1] >> q[2] >> q[3] >> im.t[0] >> im.t[1] >>
-          im.t[2] >> im.camera_id >> im.name))
-      parseError(img_path, n,
-                 "expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME");
-    im.R = rotationFromQuaternion(q);
-    std::string pts;
-    if (std::getline(f, pts)) {
-      ++n;
-      std::istringstream ps(pts);
-      double x, y;
-      long long id;
-      while (ps >> x >> y >> id) {
-        im.xys.emplace_back(x, y);
-        im.point3d_ids.push_back(id);
-      }
+std::vector<std::pair<int, std::string>> dataLines(const std::string& path) {
+    std::ifstream f(path);
+    if (!f) CV_Error(Error::StsError, "cannot read COLMAP file '" + path + "'");
+    std::vector<std::pair<int, std::string>> out;
+    std::string line;
+    int n = 0;
+    while (std::getline(f, line)) {
+        ++n;
+        const size_t p = line.find_first_not_of(" \t\r");
+        if (p == std::string::npos || line[p] == '#') continue;
+        out.emplace_back(n, line);
     }
-    m.images[im.id] = im;
-  }
-  const std::string pt_path = (fs::path(dir) / "points3D.txt").string();
-  for (const auto &[ln, l] : dataLines(pt_path)) {
-    std::istringstream s(l);
-    ColmapPoint pt;
-    int r, g, b;
-    if (!(s >> pt.id >> pt.xyz[0] >> pt.xyz[1] >> pt.xyz[2] >> r >> g >> b >>
-          pt.error))
-      parseError(pt_path, ln, "expected POINT3D_ID X Y Z R G B ERROR TRACK[]");
-    pt.rgb = Vec3b((uchar)r, (uchar)g, (uchar)b);
-    int image_id, idx;
-    while (s >> image_id >> idx)
-      pt.track.emplace_back(image_id, idx);
-    m.points[pt.id] = pt;
-  }
-  return m;
+    return out;
 }
 
-void ColmapModel::writeText(const std::string &dir) const {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  auto writeFile = [&](const std::string &name, const std::string &text) {
-    const std::string path = (fs::path(dir) / name).string();
-    AtomicFile out(path);
-    {
-      std::ofstream f(out.tempPath());
-      f << text;
-      if (!f)
-        CV_Error(Error::StsError, "cannot write '" + path + "'");
+[[noreturn]] void parseError(const std::string& path, int line, const std::string& what) {
+    CV_Error(Error::StsParseError, format("%s:%d: %s", path.c_str(), line, what.c_str()));
+}
+
+}  // namespace
+
+ColmapModel ColmapModel::readText(const std::string& dir) {
+    ColmapModel m;
+    const std::string cam_path = (fs::path(dir) / "cameras.txt").string();
+    for (const auto& [n, line] : dataLines(cam_path)) {
+        std::istringstream s(line);
+        ColmapCamera c;
+        if (!(s >> c.id >> c.model >> c.size.width >> c.size.height))
+            parseError(cam_path, n, "expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]");
+        double v;
+        while (s >> v)
+            c.params.push_back(v);
+        m.cameras[c.id] = c;
     }
-    out.commit();
-  };
-  std::ostringstream c, i, p;
-  c.precision(17);
-  i.precision(17);
-  p.precision(17);
-  c << "# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, "
-       "WIDTH, HEIGHT, PARAMS[]\n";
-  for (const auto &[id, cam] : cameras) {
-    c << id << " " << cam.model << " " << cam.size.width << " "
-      << cam.size.height;
-    for (double v : cam.params)
-      c << " " << v;
-    c << "\n";
-  }
-  i << "# Image list with two lines of data per image:\n"
-       "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n"
-       "#   POINTS2D[] as (X, Y, POINT3D_ID)\n";
-  for (const auto &[id, im] : images) {
-    const Vec4d q = quaternionFromRotation(im.R);
-    i << id << " " << q[0] << " " << q[1] << " " << q[2] << " " << q[3] << " "
-      << im.t[0] << " " << im.t[1] << " " << im.t[2] << " " << im.camera_id
-      << " " << im.name << "\n";
-    for (size_t k = 0; k < im.xys.size(); ++k)
-      i << (k ? " " : "") << im.xys[k].x << " " << im.xys[k].y << " "
-        << im.point3d_ids[k];
-    i << "\n";
-  }
-  p << "# 3D point list with one line of data per point:\n"
-       "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, "
-       "POINT2D_IDX)\n";
-  for (const auto &[id, pt] : points) {
-    p << id << " " << pt.xyz[0] << " " << pt.xyz[1] << " " << pt.xyz[2] << " "
-      << (int)pt.rgb[0] << " " << (int)pt.rgb[1] << " " << (int)pt.rgb[2] << " "
-      << pt.error;
-    for (const auto &t : pt.track)
-      p << " " << t.first << " " << t.second;
-    p << "\n";
-  }
-  writeFile("cameras.txt", c.str());
-  writeFile("images.txt", i.str());
-  writeFile("points3D.txt", p.str());
+    const std::string img_path = (fs::path(dir) / "images.txt").string();
+    // Two lines per image; the second (keypoints) may be empty, which dataLines()
+    // would drop, so the raw file is read to keep the pairing right.
+    std::ifstream f(img_path);
+    if (!f) CV_Error(Error::StsError, "cannot read COLMAP file '" + img_path + "'");
+    std::string line;
+    int n = 0;
+    while (std::getline(f, line)) {
+        ++n;
+        const size_t p = line.find_first_not_of(" \t\r");
+        if (p == std::string::npos || line[p] == '#') continue;
+        std::istringstream s(line);
+        ColmapImage im;
+        Vec4d q;
+        if (!(s >> im.id >> q[0] >> q[1] >> q[2] >> q[3] >> im.t[0] >> im.t[1] >> im.t[2] >>
+              im.camera_id >> im.name))
+            parseError(img_path, n, "expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME");
+        im.R = rotationFromQuaternion(q);
+        std::string pts;
+        if (std::getline(f, pts)) {
+            ++n;
+            std::istringstream ps(pts);
+            double x, y;
+            long long id;
+            while (ps >> x >> y >> id) {
+                im.xys.emplace_back(x, y);
+                im.point3d_ids.push_back(id);
+            }
+        }
+        m.images[im.id] = im;
+    }
+    const std::string pt_path = (fs::path(dir) / "points3D.txt").string();
+    for (const auto& [ln, l] : dataLines(pt_path)) {
+        std::istringstream s(l);
+        ColmapPoint pt;
+        int r, g, b;
+        if (!(s >> pt.id >> pt.xyz[0] >> pt.xyz[1] >> pt.xyz[2] >> r >> g >> b >> pt.error))
+            parseError(pt_path, ln, "expected POINT3D_ID X Y Z R G B ERROR TRACK[]");
+        pt.rgb = Vec3b((uchar)r, (uchar)g, (uchar)b);
+        int image_id, idx;
+        while (s >> image_id >> idx)
+            pt.track.emplace_back(image_id, idx);
+        m.points[pt.id] = pt;
+    }
+    return m;
 }
 
-const ColmapImage *ColmapModel::imageByName(const std::string &name) const {
-  for (const auto &kv : images)
-    if (kv.second.name == name)
-      return &kv.second;
-  return nullptr;
+void ColmapModel::writeText(const std::string& dir) const {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    auto writeFile = [&](const std::string& name, const std::string& text) {
+        const std::string path = (fs::path(dir) / name).string();
+        AtomicFile out(path);
+        {
+            std::ofstream f(out.tempPath());
+            f << text;
+            if (!f) CV_Error(Error::StsError, "cannot write '" + path + "'");
+        }
+        out.commit();
+    };
+    std::ostringstream c, i, p;
+    c.precision(17);
+    i.precision(17);
+    p.precision(17);
+    c << "# Camera list with one line of data per camera:\n#   CAMERA_ID, MODEL, "
+         "WIDTH, HEIGHT, PARAMS[]\n";
+    for (const auto& [id, cam] : cameras) {
+        c << id << " " << cam.model << " " << cam.size.width << " " << cam.size.height;
+        for (double v : cam.params)
+            c << " " << v;
+        c << "\n";
+    }
+    i << "# Image list with two lines of data per image:\n"
+         "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n"
+         "#   POINTS2D[] as (X, Y, POINT3D_ID)\n";
+    for (const auto& [id, im] : images) {
+        const Vec4d q = quaternionFromRotation(im.R);
+        i << id << " " << q[0] << " " << q[1] << " " << q[2] << " " << q[3] << " " << im.t[0] << " "
+          << im.t[1] << " " << im.t[2] << " " << im.camera_id << " " << im.name << "\n";
+        for (size_t k = 0; k < im.xys.size(); ++k)
+            i << (k ? " " : "") << im.xys[k].x << " " << im.xys[k].y << " " << im.point3d_ids[k];
+        i << "\n";
+    }
+    p << "# 3D point list with one line of data per point:\n"
+         "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, "
+         "POINT2D_IDX)\n";
+    for (const auto& [id, pt] : points) {
+        p << id << " " << pt.xyz[0] << " " << pt.xyz[1] << " " << pt.xyz[2] << " " << (int)pt.rgb[0]
+          << " " << (int)pt.rgb[1] << " " << (int)pt.rgb[2] << " " << pt.error;
+        for (const auto& t : pt.track)
+            p << " " << t.first << " " << t.second;
+        p << "\n";
+    }
+    writeFile("cameras.txt", c.str());
+    writeFile("images.txt", i.str());
+    writeFile("points3D.txt", p.str());
+}
+
+const ColmapImage* ColmapModel::imageByName(const std::string& name) const {
+    for (const auto& kv : images)
+        if (kv.second.name == name) return &kv.second;
+    return nullptr;
 }
 
 namespace {
 
-std::string shellQuote(const std::string &s) {
-  std::string q = "'";
-  for (char c : s)
-    q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
+std::string shellQuote(const std::string& s) {
+    std::string q = "'";
+    for (char c : s)
+        q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return q + "'";
 }
 
 // Runs one colmap step, appending its output to the log; throws in plain words
 // on failure.
-void runStep(const ColmapOptions &o, const std::string &step,
-             const std::string &args, const std::string &log) {
-  {
-    std::ofstream l(log, std::ios::app);
-    l << "\n==== colmap " << step << " " << args << "\n";
-  }
-  const std::string cmd = "QT_QPA_PLATFORM=offscreen " +
-                          shellQuote(o.executable) + " " + step + " " + args +
-                          " >> " + shellQuote(log) + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  if (code == 127)
-    CV_Error(Error::StsError, "the colmap program ('" + o.executable +
-                                  "') was not found: install Debian's colmap "
-                                  "package or give its path");
-  if (code != 0)
-    CV_Error(Error::StsError,
-             format("COLMAP %s failed (exit code %d); its output is in %s",
-                    step.c_str(), code, log.c_str()));
+void runStep(const ColmapOptions& o, const std::string& step, const std::string& args,
+             const std::string& log) {
+    {
+        std::ofstream l(log, std::ios::app);
+        l << "\n==== colmap " << step << " " << args << "\n";
+    }
+    const std::string cmd = "QT_QPA_PLATFORM=offscreen " + shellQuote(o.executable) + " " + step +
+                            " " + args + " >> " + shellQuote(log) + " 2>&1";
+    const int status = std::system(cmd.c_str());
+    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    if (code == 127)
+        CV_Error(Error::StsError, "the colmap program ('" + o.executable +
+                                      "') was not found: install Debian's colmap "
+                                      "package or give its path");
+    if (code != 0)
+        CV_Error(Error::StsError, format("COLMAP %s failed (exit code %d); its output is in %s",
+                                         step.c_str(), code, log.c_str()));
 }
 
-} // namespace
+}  // namespace
 
-std::vector<ColmapModel> runColmapSfM(const std::string &image_dir,
-                                      const std::string &work_dir,
-                                      const Matx33d &K, Size size,
-                                      const ColmapOptions &o) {
-  std::error_code ec;
-  if (!fs::is_directory(image_dir, ec))
-    CV_Error(Error::StsError, "'" + image_dir + "' is not a folder of images");
-  fs::create_directories(work_dir, ec);
-  if (ec)
-    CV_Error(Error::StsError,
-             "cannot create '" + work_dir + "': " + ec.message());
-  const fs::path work(work_dir);
-  const std::string log = (work / "colmap.log").string(),
-                    db = (work / "database.db").string();
-  const fs::path sparse = work / "sparse", text = work / "sparse_txt";
-  fs::remove(db, ec);
-  fs::remove_all(sparse, ec);
-  fs::remove_all(text, ec);
-  fs::create_directories(sparse, ec);
+std::vector<ColmapModel> runColmapSfM(const std::string& image_dir, const std::string& work_dir,
+                                      const Matx33d& K, Size size, const ColmapOptions& o) {
+    std::error_code ec;
+    if (!fs::is_directory(image_dir, ec))
+        CV_Error(Error::StsError, "'" + image_dir + "' is not a folder of images");
+    fs::create_directories(work_dir, ec);
+    if (ec) CV_Error(Error::StsError, "cannot create '" + work_dir + "': " + ec.message());
+    const fs::path work(work_dir);
+    const std::string log = (work / "colmap.log").string(), db = (work / "database.db").string();
+    const fs::path sparse = work / "sparse", text = work / "sparse_txt";
+    fs::remove(db, ec);
+    fs::remove_all(sparse, ec);
+    fs::remove_all(text, ec);
+    fs::create_directories(sparse, ec);
 
-  // PINHOLE with COLMAP's +0.5 pixel-centre convention.
-  const std::string params = format("%.10g,%.10g,%.10g,%.10g", K(0, 0), K(1, 1),
-                                    K(0, 2) + 0.5, K(1, 2) + 0.5);
-  const std::string common = "--random_seed " + std::to_string(o.random_seed);
-  runStep(
-      o, "feature_extractor",
-      common + " --database_path " + shellQuote(db) + " --image_path " +
-          shellQuote(image_dir) +
-          " --ImageReader.camera_model PINHOLE --ImageReader.single_camera 1 "
-          "--ImageReader.camera_params " +
-          params + " --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads " +
-          std::to_string(o.threads) + " --SiftExtraction.max_num_features " +
-          std::to_string(o.max_num_features),
-      log);
-  std::string match =
-      common + " --database_path " + shellQuote(db) +
-      " --SiftMatching.use_gpu 0" + " --SiftMatching.num_threads " +
-      std::to_string(o.threads) + " --SequentialMatching.overlap " +
-      std::to_string(o.overlap);
-  if (!o.vocab_tree.empty())
-    match += " --SequentialMatching.loop_detection 1 "
-             "--SequentialMatching.vocab_tree_path " +
-             shellQuote(o.vocab_tree);
-  runStep(o, "sequential_matcher", match, log);
-  runStep(o, "mapper",
-          common + " --database_path " + shellQuote(db) + " --image_path " +
-              shellQuote(image_dir) + " --output_path " +
-              shellQuote(sparse.string()) + " --Mapper.num_threads " +
-              std::to_string(o.mapper_threads) +
-              " --Mapper.ba_refine_focal_length 0 "
-              "--Mapper.ba_refine_principal_point 0"
-              " --Mapper.ba_refine_extra_params 0",
-          log);
-  std::vector<ColmapModel> models;
-  for (const auto &e : fs::directory_iterator(sparse, ec)) {
-    if (!e.is_directory())
-      continue;
-    const fs::path out = text / e.path().filename();
-    fs::create_directories(out, ec);
-    runStep(o, "model_converter",
-            "--input_path " + shellQuote(e.path().string()) +
-                " --output_path " + shellQuote(out.string()) +
-                " --output_type TXT",
+    // PINHOLE with COLMAP's +0.5 pixel-centre convention.
+    const std::string params =
+        format("%.10g,%.10g,%.10g,%.10g", K(0, 0), K(1, 1), K(0, 2) + 0.5, K(1, 2) + 0.5);
+    const std::string common = "--random_seed " + std::to_string(o.random_seed);
+    runStep(o, "feature_extractor",
+            common + " --database_path " + shellQuote(db) + " --image_path " +
+                shellQuote(image_dir) +
+                " --ImageReader.camera_model PINHOLE --ImageReader.single_camera 1 "
+                "--ImageReader.camera_params " +
+                params + " --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads " +
+                std::to_string(o.threads) + " --SiftExtraction.max_num_features " +
+                std::to_string(o.max_num_features),
             log);
-    models.push_back(ColmapModel::readText(out.string()));
-  }
-  if (models.empty())
-    CV_Error(Error::StsError,
-             "COLMAP reconstructed nothing from '" + image_dir +
-                 "' (too little texture or motion?); its output is in " + log);
-  std::sort(models.begin(), models.end(),
-            [](const ColmapModel &a, const ColmapModel &b) {
-              return a.images.size() > b.images.size();
-            });
-  return models;
+    std::string match = common + " --database_path " + shellQuote(db) +
+                        " --SiftMatching.use_gpu 0" + " --SiftMatching.num_threads " +
+                        std::to_string(o.threads) + " --SequentialMatching.overlap " +
+                        std::to_string(o.overlap);
+    if (!o.vocab_tree.empty())
+        match +=
+            " --SequentialMatching.loop_detection 1 "
+            "--SequentialMatching.vocab_tree_path " +
+            shellQuote(o.vocab_tree);
+    runStep(o, "sequential_matcher", match, log);
+    runStep(o, "mapper",
+            common + " --database_path " + shellQuote(db) + " --image_path " +
+                shellQuote(image_dir) + " --output_path " + shellQuote(sparse.string()) +
+                " --Mapper.num_threads " + std::to_string(o.mapper_threads) +
+                " --Mapper.ba_refine_focal_length 0 "
+                "--Mapper.ba_refine_principal_point 0"
+                " --Mapper.ba_refine_extra_params 0",
+            log);
+    std::vector<ColmapModel> models;
+    for (const auto& e : fs::directory_iterator(sparse, ec)) {
+        if (!e.is_directory()) continue;
+        const fs::path out = text / e.path().filename();
+        fs::create_directories(out, ec);
+        runStep(o, "model_converter",
+                "--input_path " + shellQuote(e.path().string()) + " --output_path " +
+                    shellQuote(out.string()) + " --output_type TXT",
+                log);
+        models.push_back(ColmapModel::readText(out.string()));
+    }
+    if (models.empty())
+        CV_Error(Error::StsError, "COLMAP reconstructed nothing from '" + image_dir +
+                                      "' (too little texture or motion?); its output is in " + log);
+    std::sort(models.begin(), models.end(), [](const ColmapModel& a, const ColmapModel& b) {
+        return a.images.size() > b.images.size();
+    });
+    return models;
 }
 
-} // namespace vbme
-} // namespace cv
+}  // namespace vbme
+}  // namespace cv

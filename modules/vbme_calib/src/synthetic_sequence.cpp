@@ -11,195 +11,178 @@ namespace cv {
 namespace vbme {
 
 std::map<std::string, Mat> makeRoomTextures(int seed, int size) {
-  std::map<std::string, Mat> out;
-  int k = 0;
-  for (const auto &face : Room::faceNames()) {
-    RNG rng((uint64)seed * 1000003u + (uint64)(++k) * 7919u);
-    Mat tex(size, size, CV_32FC3, Scalar::all(0));
-    // Multi-scale colour noise: blotches at several sizes.
-    for (int scale = size / 8; scale >= 4; scale /= 2) {
-      Mat small(std::max(2, size / scale), std::max(2, size / scale), CV_32FC3),
-          up;
-      rng.fill(small, RNG::UNIFORM, -1, 1);
-      resize(small, up, tex.size(), 0, 0, INTER_CUBIC);
-      tex += up * (0.12 * std::sqrt(scale / 4.0) / std::sqrt(size / 32.0));
-    }
-    tex += Scalar(0.45, 0.45, 0.45) + Scalar(rng.uniform(-0.1, 0.1),
-                                             rng.uniform(-0.1, 0.1),
-                                             rng.uniform(-0.1, 0.1));
-    Mat img;
-    tex.convertTo(img, CV_8UC3, 255);
-    // Shapes: corners and blobs for the feature detector.
-    const int shapes = size * size / 2500;
-    for (int i = 0; i < shapes; ++i) {
-      const Scalar c(rng.uniform(0, 256), rng.uniform(0, 256),
-                     rng.uniform(0, 256));
-      const Point p(rng.uniform(0, size), rng.uniform(0, size));
-      const int r = rng.uniform(size / 200 + 2, size / 25 + 3);
-      switch (rng.uniform(0, 3)) {
-      case 0:
-        circle(img, p, r, c, FILLED, LINE_AA);
-        break;
-      case 1:
-        rectangle(img, Rect(p.x, p.y, r, rng.uniform(2, 2 * r)), c, FILLED);
-        break;
-      default:
-        line(img, p,
-             p + Point(rng.uniform(-3 * r, 3 * r), rng.uniform(-3 * r, 3 * r)),
-             c, rng.uniform(1, 4), LINE_AA);
-      }
-    }
-    GaussianBlur(img, img, Size(0, 0), 0.8); // no aliasing when sampled
-    out[face] = img;
-  }
-  return out;
-}
-
-Mat renderTexturedRoom(const Camera &cam, const Room &room,
-                       const std::map<std::string, Mat> &textures,
-                       int supersample) {
-  CV_Assert(cam.image_size.area() > 0 && supersample >= 1);
-  const Vec3d c = cam.center();
-  for (int a = 0; a < 3; ++a)
-    if (!(c[a] > room.min[a] && c[a] < room.max[a]))
-      CV_Error(Error::StsBadArg,
-               "renderTexturedRoom: the camera is outside the room");
-  const std::vector<std::string> &faces =
-      Room::faceNames(); // floor, ceiling, left, right, front, back
-  std::vector<Mat> tex(6);
-  for (int f = 0; f < 6; ++f) {
-    auto it = textures.find(faces[f]);
-    if (it != textures.end())
-      it->second.convertTo(tex[f], CV_32FC3);
-  }
-  const Matx33d Kinv = cam.K.inv(), Rt = cam.R.t();
-  Mat out(cam.image_size, CV_8UC3);
-  parallel_for_(Range(0, out.rows), [&](const Range &rows) {
-    for (int y = rows.start; y < rows.end; ++y)
-      for (int x = 0; x < out.cols; ++x) {
-        Vec3d sum(0, 0, 0);
-        for (int sy = 0; sy < supersample; ++sy)
-          for (int sx = 0; sx < supersample; ++sx) {
-            const double px = x - 0.5 + (sx + 0.5) / supersample,
-                         py = y - 0.5 + (sy + 0.5) / supersample;
-            const Vec3d d = Rt * (Kinv * Vec3d(px, py, 1));
-            // Exit point of the ray from inside the box.
-            double tmin = 1e300;
-            int face = 0;
-            for (int a = 0; a < 3; ++a) {
-              if (d[a] == 0)
-                continue;
-              const double tt =
-                  ((d[a] > 0 ? room.max[a] : room.min[a]) - c[a]) / d[a];
-              if (tt < tmin) {
-                tmin = tt;
-                // floor/ceiling = z (faces 0/1), left/right = x (2/3),
-                // front/back = y (4/5)
-                face = a == 2   ? (d[a] > 0 ? 1 : 0)
-                       : a == 0 ? (d[a] > 0 ? 3 : 2)
-                                : (d[a] > 0 ? 5 : 4);
-              }
+    std::map<std::string, Mat> out;
+    int k = 0;
+    for (const auto& face : Room::faceNames()) {
+        RNG rng((uint64)seed * 1000003u + (uint64)(++k) * 7919u);
+        Mat tex(size, size, CV_32FC3, Scalar::all(0));
+        // Multi-scale colour noise: blotches at several sizes.
+        for (int scale = size / 8; scale >= 4; scale /= 2) {
+            Mat small(std::max(2, size / scale), std::max(2, size / scale), CV_32FC3), up;
+            rng.fill(small, RNG::UNIFORM, -1, 1);
+            resize(small, up, tex.size(), 0, 0, INTER_CUBIC);
+            tex += up * (0.12 * std::sqrt(scale / 4.0) / std::sqrt(size / 32.0));
+        }
+        tex += Scalar(0.45, 0.45, 0.45) +
+               Scalar(rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1));
+        Mat img;
+        tex.convertTo(img, CV_8UC3, 255);
+        // Shapes: corners and blobs for the feature detector.
+        const int shapes = size * size / 2500;
+        for (int i = 0; i < shapes; ++i) {
+            const Scalar c(rng.uniform(0, 256), rng.uniform(0, 256), rng.uniform(0, 256));
+            const Point p(rng.uniform(0, size), rng.uniform(0, size));
+            const int r = rng.uniform(size / 200 + 2, size / 25 + 3);
+            switch (rng.uniform(0, 3)) {
+                case 0:
+                    circle(img, p, r, c, FILLED, LINE_AA);
+                    break;
+                case 1:
+                    rectangle(img, Rect(p.x, p.y, r, rng.uniform(2, 2 * r)), c, FILLED);
+                    break;
+                default:
+                    line(img, p, p + Point(rng.uniform(-3 * r, 3 * r), rng.uniform(-3 * r, 3 * r)),
+                         c, rng.uniform(1, 4), LINE_AA);
             }
-            const Vec3d p = c + d * tmin;
-            const Mat &t = tex[face];
-            if (t.empty()) {
-              sum += Vec3d(128, 128, 128);
-              continue;
+        }
+        GaussianBlur(img, img, Size(0, 0), 0.8);  // no aliasing when sampled
+        out[face] = img;
+    }
+    return out;
+}
+
+Mat renderTexturedRoom(const Camera& cam, const Room& room,
+                       const std::map<std::string, Mat>& textures, int supersample) {
+    CV_Assert(cam.image_size.area() > 0 && supersample >= 1);
+    const Vec3d c = cam.center();
+    for (int a = 0; a < 3; ++a)
+        if (!(c[a] > room.min[a] && c[a] < room.max[a]))
+            CV_Error(Error::StsBadArg, "renderTexturedRoom: the camera is outside the room");
+    const std::vector<std::string>& faces =
+        Room::faceNames();  // floor, ceiling, left, right, front, back
+    std::vector<Mat> tex(6);
+    for (int f = 0; f < 6; ++f) {
+        auto it = textures.find(faces[f]);
+        if (it != textures.end()) it->second.convertTo(tex[f], CV_32FC3);
+    }
+    const Matx33d Kinv = cam.K.inv(), Rt = cam.R.t();
+    Mat out(cam.image_size, CV_8UC3);
+    parallel_for_(Range(0, out.rows), [&](const Range& rows) {
+        for (int y = rows.start; y < rows.end; ++y)
+            for (int x = 0; x < out.cols; ++x) {
+                Vec3d sum(0, 0, 0);
+                for (int sy = 0; sy < supersample; ++sy)
+                    for (int sx = 0; sx < supersample; ++sx) {
+                        const double px = x - 0.5 + (sx + 0.5) / supersample,
+                                     py = y - 0.5 + (sy + 0.5) / supersample;
+                        const Vec3d d = Rt * (Kinv * Vec3d(px, py, 1));
+                        // Exit point of the ray from inside the box.
+                        double tmin = 1e300;
+                        int face = 0;
+                        for (int a = 0; a < 3; ++a) {
+                            if (d[a] == 0) continue;
+                            const double tt =
+                                ((d[a] > 0 ? room.max[a] : room.min[a]) - c[a]) / d[a];
+                            if (tt < tmin) {
+                                tmin = tt;
+                                // floor/ceiling = z (faces 0/1), left/right = x (2/3),
+                                // front/back = y (4/5)
+                                face = a == 2   ? (d[a] > 0 ? 1 : 0)
+                                       : a == 0 ? (d[a] > 0 ? 3 : 2)
+                                                : (d[a] > 0 ? 5 : 4);
+                            }
+                        }
+                        const Vec3d p = c + d * tmin;
+                        const Mat& t = tex[face];
+                        if (t.empty()) {
+                            sum += Vec3d(128, 128, 128);
+                            continue;
+                        }
+                        int ua, va;  // world axes along columns and rows
+                        if (face <= 1)
+                            ua = 0, va = 1;
+                        else if (face <= 3)
+                            ua = 1, va = 2;
+                        else
+                            ua = 0, va = 2;
+                        const double u = (p[ua] - room.min[ua]) / (room.max[ua] - room.min[ua]);
+                        const double v = (p[va] - room.min[va]) / (room.max[va] - room.min[va]);
+                        const float tx = float(u * t.cols - 0.5),
+                                    ty = float((1 - v) * t.rows - 0.5);
+                        const int x0 = std::max(0, std::min(t.cols - 2, (int)std::floor(tx)));
+                        const int y0 = std::max(0, std::min(t.rows - 2, (int)std::floor(ty)));
+                        const float fx = std::min(1.f, std::max(0.f, tx - x0)),
+                                    fy = std::min(1.f, std::max(0.f, ty - y0));
+                        const Vec3f a = t.at<Vec3f>(y0, x0), b = t.at<Vec3f>(y0, x0 + 1),
+                                    cc = t.at<Vec3f>(y0 + 1, x0), dd = t.at<Vec3f>(y0 + 1, x0 + 1);
+                        const Vec3f s =
+                            (a * (1 - fx) + b * fx) * (1 - fy) + (cc * (1 - fx) + dd * fx) * fy;
+                        sum += Vec3d(s[0], s[1], s[2]);
+                    }
+                sum *= 1.0 / (supersample * supersample);
+                out.at<Vec3b>(y, x) =
+                    Vec3b(saturate_cast<uchar>(sum[0]), saturate_cast<uchar>(sum[1]),
+                          saturate_cast<uchar>(sum[2]));
             }
-            int ua, va; // world axes along columns and rows
-            if (face <= 1)
-              ua = 0, va = 1;
-            else if (face <= 3)
-              ua = 1, va = 2;
-            else
-              ua = 0, va = 2;
-            const double u =
-                (p[ua] - room.min[ua]) / (room.max[ua] - room.min[ua]);
-            const double v =
-                (p[va] - room.min[va]) / (room.max[va] - room.min[va]);
-            const float tx = float(u * t.cols - 0.5),
-                        ty = float((1 - v) * t.rows - 0.5);
-            const int x0 =
-                std::max(0, std::min(t.cols - 2, (int)std::floor(tx)));
-            const int y0 =
-                std::max(0, std::min(t.rows - 2, (int)std::floor(ty)));
-            const float fx = std::min(1.f, std::max(0.f, tx - x0)),
-                        fy = std::min(1.f, std::max(0.f, ty - y0));
-            const Vec3f a = t.at<Vec3f>(y0, x0), b = t.at<Vec3f>(y0, x0 + 1),
-                        cc = t.at<Vec3f>(y0 + 1, x0),
-                        dd = t.at<Vec3f>(y0 + 1, x0 + 1);
-            const Vec3f s = (a * (1 - fx) + b * fx) * (1 - fy) +
-                            (cc * (1 - fx) + dd * fx) * fy;
-            sum += Vec3d(s[0], s[1], s[2]);
-          }
-        sum *= 1.0 / (supersample * supersample);
-        out.at<Vec3b>(y, x) =
-            Vec3b(saturate_cast<uchar>(sum[0]), saturate_cast<uchar>(sum[1]),
-                  saturate_cast<uchar>(sum[2]));
-      }
-  });
-  return out;
+    });
+    return out;
 }
 
-std::vector<Camera> handheldCameraPath(const Camera &first, int frames,
-                                       double travel, double shake_m,
-                                       double shake_deg, int seed) {
-  CV_Assert(frames >= 1);
-  RNG rng(seed);
-  // Band-limited shake: a few random sinusoids per axis.
-  struct Wave {
-    double amp, freq, phase;
-  };
-  auto waves = [&](double amp) {
-    std::vector<Wave> w;
-    for (int i = 0; i < 3; ++i)
-      w.push_back({amp * rng.uniform(0.3, 1.0), rng.uniform(0.05, 0.25),
-                   rng.uniform(0.0, 2 * CV_PI)});
-    return w;
-  };
-  std::vector<std::vector<Wave>> pos(3), rot(3);
-  for (int a = 0; a < 3; ++a) {
-    pos[a] = waves(shake_m);
-    rot[a] = waves(shake_deg * CV_PI / 180);
-  }
-  auto eval = [](const std::vector<Wave> &w, double i) {
-    double s = 0;
-    for (const auto &x : w)
-      s += x.amp * std::sin(2 * CV_PI * x.freq * i + x.phase);
-    return s;
-  };
-  // The walk in the camera's horizontal frame: sideways (camera x) and forwards
-  // (camera z projected on the floor), with a slow pan about world z.
-  const Vec3d c0 = first.center();
-  Vec3d right = first.R.t() * Vec3d(1, 0, 0),
-        fwd = first.R.t() * Vec3d(0, 0, 1);
-  right[2] = 0;
-  fwd[2] = 0;
-  right = normalize(right);
-  fwd = normalize(fwd);
-  std::vector<Camera> path;
-  for (int i = 0; i < frames; ++i) {
-    const double t = frames > 1 ? double(i) / (frames - 1) : 0;
-    const Vec3d centre =
-        c0 + right * (0.8 * travel * std::sin(CV_PI * t)) +
-        fwd * (0.6 * travel * t) +
-        Vec3d(eval(pos[0], i), eval(pos[1], i), eval(pos[2], i)) -
-        Vec3d(eval(pos[0], 0), eval(pos[1], 0), eval(pos[2], 0));
-    const double pan = -0.35 * std::sin(CV_PI * t); // radians about world z
-    Mat Rpan;
-    Rodrigues(Vec3d(0, 0, pan), Rpan);
-    Mat Rshake;
-    Rodrigues(Vec3d(eval(rot[0], i) - eval(rot[0], 0),
-                    eval(rot[1], i) - eval(rot[1], 0),
-                    eval(rot[2], i) - eval(rot[2], 0)),
-              Rshake);
-    Camera c = first;
-    c.R = Matx33d(Rshake) * first.R * Matx33d(Rpan).t();
-    c.t = -(c.R * centre);
-    path.push_back(c);
-  }
-  return path;
+std::vector<Camera> handheldCameraPath(const Camera& first, int frames, double travel,
+                                       double shake_m, double shake_deg, int seed) {
+    CV_Assert(frames >= 1);
+    RNG rng(seed);
+    // Band-limited shake: a few random sinusoids per axis.
+    struct Wave {
+        double amp, freq, phase;
+    };
+    auto waves = [&](double amp) {
+        std::vector<Wave> w;
+        for (int i = 0; i < 3; ++i)
+            w.push_back({amp * rng.uniform(0.3, 1.0), rng.uniform(0.05, 0.25),
+                         rng.uniform(0.0, 2 * CV_PI)});
+        return w;
+    };
+    std::vector<std::vector<Wave>> pos(3), rot(3);
+    for (int a = 0; a < 3; ++a) {
+        pos[a] = waves(shake_m);
+        rot[a] = waves(shake_deg * CV_PI / 180);
+    }
+    auto eval = [](const std::vector<Wave>& w, double i) {
+        double s = 0;
+        for (const auto& x : w)
+            s += x.amp * std::sin(2 * CV_PI * x.freq * i + x.phase);
+        return s;
+    };
+    // The walk in the camera's horizontal frame: sideways (camera x) and forwards
+    // (camera z projected on the floor), with a slow pan about world z.
+    const Vec3d c0 = first.center();
+    Vec3d right = first.R.t() * Vec3d(1, 0, 0), fwd = first.R.t() * Vec3d(0, 0, 1);
+    right[2] = 0;
+    fwd[2] = 0;
+    right = normalize(right);
+    fwd = normalize(fwd);
+    std::vector<Camera> path;
+    for (int i = 0; i < frames; ++i) {
+        const double t = frames > 1 ? double(i) / (frames - 1) : 0;
+        const Vec3d centre = c0 + right * (0.8 * travel * std::sin(CV_PI * t)) +
+                             fwd * (0.6 * travel * t) +
+                             Vec3d(eval(pos[0], i), eval(pos[1], i), eval(pos[2], i)) -
+                             Vec3d(eval(pos[0], 0), eval(pos[1], 0), eval(pos[2], 0));
+        const double pan = -0.35 * std::sin(CV_PI * t);  // radians about world z
+        Mat Rpan;
+        Rodrigues(Vec3d(0, 0, pan), Rpan);
+        Mat Rshake;
+        Rodrigues(Vec3d(eval(rot[0], i) - eval(rot[0], 0), eval(rot[1], i) - eval(rot[1], 0),
+                        eval(rot[2], i) - eval(rot[2], 0)),
+                  Rshake);
+        Camera c = first;
+        c.R = Matx33d(Rshake) * first.R * Matx33d(Rpan).t();
+        c.t = -(c.R * centre);
+        path.push_back(c);
+    }
+    return path;
 }
 
-} // namespace vbme
-} // namespace cv
+}  // namespace vbme
+}  // namespace cv

@@ -20,22 +20,21 @@ namespace vbme {
 /** @brief Depth (camera z, metres) of the room-box surface seen at pixel @p px
 by @p camera (which must be inside the box); @p face receives the face's index
 in Room::faceNames(). */
-CV_EXPORTS double boxDepthAt(const Camera &camera, const Room &room,
-                             const Point2d &px, int *face = nullptr);
+CV_EXPORTS double boxDepthAt(const Camera& camera, const Room& room, const Point2d& px,
+                             int* face = nullptr);
 
 /** @brief Result of a scale estimate: metres per unit of the SfM model. */
 struct CV_EXPORTS ScaleEstimate {
-  double scale = 0; //!< metres per SfM unit
-  double spread =
-      0;         //!< relative spread of the per-point ratios used (std / scale)
-  int used = 0;  //!< points used
-  int total = 0; //!< points offered
+    double scale = 0;   //!< metres per SfM unit
+    double spread = 0;  //!< relative spread of the per-point ratios used (std / scale)
+    int used = 0;       //!< points used
+    int total = 0;      //!< points offered
 };
 
 /** @brief Eq. 5.3 of the thesis: the mean over the points of box_depth /
  * sfm_depth. */
-CV_EXPORTS ScaleEstimate scaleEq53(const std::vector<double> &box_depths,
-                                   const std::vector<double> &sfm_depths);
+CV_EXPORTS ScaleEstimate scaleEq53(const std::vector<double>& box_depths,
+                                   const std::vector<double>& sfm_depths);
 
 /** @brief A robust Eq. 5.3: the median ratio, then the points whose ratio lies
 within
@@ -44,32 +43,28 @@ furniture or seen through a window — averaged with weights 1 / (reprojection
 error + 0.5 px).
 @param errors per-point reprojection errors (pixels), or empty for equal
 weights. */
-CV_EXPORTS ScaleEstimate
-scaleRobust(const std::vector<double> &box_depths,
-            const std::vector<double> &sfm_depths,
-            const std::vector<double> &errors = std::vector<double>(),
-            double tolerance = 0.05);
+CV_EXPORTS ScaleEstimate scaleRobust(const std::vector<double>& box_depths,
+                                     const std::vector<double>& sfm_depths,
+                                     const std::vector<double>& errors = std::vector<double>(),
+                                     double tolerance = 0.05);
 
 /** @brief Options of alignment and tracking. */
 struct CV_EXPORTS CameraTrackingOptions {
-  bool robust_scale = true; //!< robust Eq. 5.3 (else the thesis's mean)
-  double scale_tolerance =
-      0.05;       //!< relative tolerance of the robust scale's inliers
-  int stride = 1; //!< reconstruct every k-th frame (the rest interpolated)
-  ColmapOptions colmap; //!< how COLMAP runs
+    bool robust_scale = true;       //!< robust Eq. 5.3 (else the thesis's mean)
+    double scale_tolerance = 0.05;  //!< relative tolerance of the robust scale's inliers
+    int stride = 1;                 //!< reconstruct every k-th frame (the rest interpolated)
+    ColmapOptions colmap;           //!< how COLMAP runs
 };
 
 /** @brief What the tracking did. */
 struct CV_EXPORTS CameraTrackingReport {
-  int frames = 0;       //!< video frames
-  int registered = 0;   //!< frames with a pose from SfM
-  int interpolated = 0; //!< frames whose pose was interpolated
-  int models =
-      0; //!< models COLMAP produced (only the one holding frame 0 is used)
-  double reprojection_rms =
-      0; //!< RMS reprojection error of the used model's points (pixels)
-  ScaleEstimate scale; //!< the scale of Eq. 5.3 (robust or mean)
-  double seconds = 0;  //!< wall time
+    int frames = 0;               //!< video frames
+    int registered = 0;           //!< frames with a pose from SfM
+    int interpolated = 0;         //!< frames whose pose was interpolated
+    int models = 0;               //!< models COLMAP produced (only the one holding frame 0 is used)
+    double reprojection_rms = 0;  //!< RMS reprojection error of the used model's points (pixels)
+    ScaleEstimate scale;          //!< the scale of Eq. 5.3 (robust or mean)
+    double seconds = 0;           //!< wall time
 };
 
 /** @brief Aligns a COLMAP model to the annotated room: rotates and translates
@@ -86,20 +81,18 @@ is frame 0).
 (slerp of rotations, linear centres) between their registered neighbours, or
 held at the nearest one beyond the ends, and flagged CameraPath::INTERPOLATED.
 */
-CV_EXPORTS CameraPath
-alignToRoom(const ColmapModel &model,
-            const std::vector<std::string> &frame_names, const Scene &frame0,
-            const CameraTrackingOptions &options = CameraTrackingOptions(),
-            CameraTrackingReport *report = nullptr);
+CV_EXPORTS CameraPath alignToRoom(const ColmapModel& model,
+                                  const std::vector<std::string>& frame_names, const Scene& frame0,
+                                  const CameraTrackingOptions& options = CameraTrackingOptions(),
+                                  CameraTrackingReport* report = nullptr);
 
 /** @brief Camera tracking of a video given as a folder of frames named in time
 order: COLMAP (runColmapSfM) then alignToRoom(). @p work_dir receives COLMAP's
 files and log. */
 CV_EXPORTS CameraPath trackCameraFrames(
-    const std::string &frames_dir, const std::vector<std::string> &frame_names,
-    const Scene &frame0, const std::string &work_dir,
-    const CameraTrackingOptions &options = CameraTrackingOptions(),
-    CameraTrackingReport *report = nullptr);
+    const std::string& frames_dir, const std::vector<std::string>& frame_names, const Scene& frame0,
+    const std::string& work_dir, const CameraTrackingOptions& options = CameraTrackingOptions(),
+    CameraTrackingReport* report = nullptr);
 
 /** @brief Camera tracking of a video file (or image folder): frames are
 extracted to `work_dir/frames` (every @p options.stride-th one; the others are
@@ -107,27 +100,26 @@ interpolated), COLMAP runs in `work_dir`, and the model is aligned to the
 annotated room. Resumable: extracted frames and a finished COLMAP run found in
 @p work_dir (marked complete) are reused, not redone. Throws cv::Exception if
 the video's frame size differs from the scene's image size. */
-CV_EXPORTS CameraPath trackCameraVideo(
-    const std::string &video, const Scene &frame0, const std::string &work_dir,
-    const CameraTrackingOptions &options = CameraTrackingOptions(),
-    CameraTrackingReport *report = nullptr);
+CV_EXPORTS CameraPath
+trackCameraVideo(const std::string& video, const Scene& frame0, const std::string& work_dir,
+                 const CameraTrackingOptions& options = CameraTrackingOptions(),
+                 CameraTrackingReport* report = nullptr);
 
 /** @brief Draws the room box's edges as @p camera sees them (clipped to the
 part in front of the camera), with a caption; the quickest check of a camera
 track. */
-CV_EXPORTS void drawRoomBox(InputOutputArray image, const Camera &camera,
-                            const Room &room,
-                            const Scalar &colour = Scalar(0, 255, 255),
-                            const std::string &caption = std::string());
+CV_EXPORTS void drawRoomBox(InputOutputArray image, const Camera& camera, const Room& room,
+                            const Scalar& colour = Scalar(0, 255, 255),
+                            const std::string& caption = std::string());
 
 /** @brief The aligned track as a COLMAP text model (one PINHOLE camera, one
 image per video frame named frame_%05d.png, no points), for tools that read
 COLMAP models. */
-CV_EXPORTS ColmapModel toColmapModel(const CameraPath &path);
+CV_EXPORTS ColmapModel toColmapModel(const CameraPath& path);
 
 //! @}
 
-} // namespace vbme
-} // namespace cv
+}  // namespace vbme
+}  // namespace cv
 
 #endif

@@ -26,64 +26,63 @@ files; convert principal points and keypoints at the boundary
 
 /** @brief A camera of cameras.txt. */
 struct CV_EXPORTS ColmapCamera {
-  int id = 1;                    //!< CAMERA_ID
-  std::string model = "PINHOLE"; //!< MODEL (PINHOLE: fx, fy, cx, cy)
-  Size size;                     //!< WIDTH, HEIGHT
-  std::vector<double> params;    //!< PARAMS[] in COLMAP's convention
+    int id = 1;                     //!< CAMERA_ID
+    std::string model = "PINHOLE";  //!< MODEL (PINHOLE: fx, fy, cx, cy)
+    Size size;                      //!< WIDTH, HEIGHT
+    std::vector<double> params;     //!< PARAMS[] in COLMAP's convention
 };
 
 /** @brief An image of images.txt: its pose (cam_from_world of the model) and
  * its keypoints. */
 struct CV_EXPORTS ColmapImage {
-  int id = 0;                         //!< IMAGE_ID
-  Matx33d R = Matx33d::eye();         //!< rotation from QW QX QY QZ
-  Vec3d t = Vec3d(0, 0, 0);           //!< TX TY TZ
-  int camera_id = 1;                  //!< CAMERA_ID
-  std::string name;                   //!< NAME
-  std::vector<Point2d> xys;           //!< keypoints (COLMAP pixel convention)
-  std::vector<long long> point3d_ids; //!< POINT3D_ID per keypoint, −1 if none
+    int id = 0;                          //!< IMAGE_ID
+    Matx33d R = Matx33d::eye();          //!< rotation from QW QX QY QZ
+    Vec3d t = Vec3d(0, 0, 0);            //!< TX TY TZ
+    int camera_id = 1;                   //!< CAMERA_ID
+    std::string name;                    //!< NAME
+    std::vector<Point2d> xys;            //!< keypoints (COLMAP pixel convention)
+    std::vector<long long> point3d_ids;  //!< POINT3D_ID per keypoint, −1 if none
 };
 
 /** @brief A point of points3D.txt. */
 struct CV_EXPORTS ColmapPoint {
-  long long id = 0;                       //!< POINT3D_ID
-  Vec3d xyz;                              //!< position in the model frame
-  Vec3b rgb;                              //!< colour (R, G, B)
-  double error = 0;                       //!< mean reprojection error (pixels)
-  std::vector<std::pair<int, int>> track; //!< (IMAGE_ID, POINT2D_IDX)
+    long long id = 0;                        //!< POINT3D_ID
+    Vec3d xyz;                               //!< position in the model frame
+    Vec3b rgb;                               //!< colour (R, G, B)
+    double error = 0;                        //!< mean reprojection error (pixels)
+    std::vector<std::pair<int, int>> track;  //!< (IMAGE_ID, POINT2D_IDX)
 };
 
 /** @brief A COLMAP sparse model. */
 struct CV_EXPORTS ColmapModel {
-  std::map<int, ColmapCamera> cameras;     //!< by CAMERA_ID
-  std::map<int, ColmapImage> images;       //!< by IMAGE_ID
-  std::map<long long, ColmapPoint> points; //!< by POINT3D_ID
+    std::map<int, ColmapCamera> cameras;      //!< by CAMERA_ID
+    std::map<int, ColmapImage> images;        //!< by IMAGE_ID
+    std::map<long long, ColmapPoint> points;  //!< by POINT3D_ID
 
-  /** @brief Reads cameras.txt, images.txt and points3D.txt from @p dir. Throws
-  cv::Exception naming the file and line at fault. */
-  static ColmapModel readText(const std::string &dir);
-  /** @brief Writes the three text files into @p dir (created), each atomically.
-   */
-  void writeText(const std::string &dir) const;
-  /** @brief The image called @p name, or nullptr. */
-  const ColmapImage *imageByName(const std::string &name) const;
+    /** @brief Reads cameras.txt, images.txt and points3D.txt from @p dir. Throws
+    cv::Exception naming the file and line at fault. */
+    static ColmapModel readText(const std::string& dir);
+    /** @brief Writes the three text files into @p dir (created), each atomically.
+     */
+    void writeText(const std::string& dir) const;
+    /** @brief The image called @p name, or nullptr. */
+    const ColmapImage* imageByName(const std::string& name) const;
 };
 
 /** @brief Rotation matrix of a unit quaternion (w, x, y, z), COLMAP's order. */
-CV_EXPORTS Matx33d rotationFromQuaternion(const Vec4d &wxyz);
+CV_EXPORTS Matx33d rotationFromQuaternion(const Vec4d& wxyz);
 /** @brief Unit quaternion (w, x, y, z) with w ≥ 0 of a rotation matrix. */
-CV_EXPORTS Vec4d quaternionFromRotation(const Matx33d &R);
+CV_EXPORTS Vec4d quaternionFromRotation(const Matx33d& R);
 
 /** @brief How the colmap program is run. */
 struct CV_EXPORTS ColmapOptions {
-  std::string executable = "colmap"; //!< the program (a name on PATH or a path)
-  int threads = 2;        //!< threads of feature extraction and matching
-  int mapper_threads = 1; //!< threads of the mapper (1: runs repeat exactly)
-  int random_seed = 0;    //!< COLMAP's --random_seed
-  int overlap = 10;       //!< sequential matcher: neighbours matched per frame
-  std::string
-      vocab_tree; //!< vocabulary-tree file: enables loop detection when set
-  int max_num_features = 4096; //!< SIFT features per image
+    std::string executable = "colmap";  //!< the program (a name on PATH or a path)
+    int threads = 2;                    //!< threads of feature extraction and matching
+    int mapper_threads = 1;             //!< threads of the mapper (1: runs repeat exactly)
+    int random_seed = 0;                //!< COLMAP's --random_seed
+    int overlap = 10;                   //!< sequential matcher: neighbours matched per frame
+    std::string vocab_tree;             //!< vocabulary-tree file: enables loop detection when set
+    int max_num_features = 4096;        //!< SIFT features per image
 };
 
 /** @brief Runs COLMAP's sparse reconstruction on the images of @p image_dir
@@ -96,15 +95,15 @@ SIFT), sequential_matcher (the images' names must sort in time), mapper
 @return the reconstructed models, largest first (several when COLMAP splits the
 video). Throws cv::Exception in plain words when the program is missing or a
 step fails (naming the log). */
-CV_EXPORTS std::vector<ColmapModel>
-runColmapSfM(const std::string &image_dir, const std::string &work_dir,
-             const Matx33d &K, Size size,
-             const ColmapOptions &options = ColmapOptions());
+CV_EXPORTS std::vector<ColmapModel> runColmapSfM(const std::string& image_dir,
+                                                 const std::string& work_dir, const Matx33d& K,
+                                                 Size size,
+                                                 const ColmapOptions& options = ColmapOptions());
 /** @} */
 
 //! @}
 
-} // namespace vbme
-} // namespace cv
+}  // namespace vbme
+}  // namespace cv
 
 #endif

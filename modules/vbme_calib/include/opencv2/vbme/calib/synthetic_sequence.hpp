@@ -20,8 +20,7 @@ namespace vbme {
 display-encoded), keyed by face name: blotchy multi-scale colour noise under
 random discs, boxes and strokes, rich in corners and blobs so that feature-based
 structure-from-motion can follow a camera. Deterministic in @p seed. */
-CV_EXPORTS std::map<std::string, Mat> makeRoomTextures(int seed = 1,
-                                                       int size = 1024);
+CV_EXPORTS std::map<std::string, Mat> makeRoomTextures(int seed = 1, int size = 1024);
 
 /** @brief Renders a textured box room as seen from inside by @p camera: every
 pixel's ray is intersected with the box (exact), the face texture is sampled
@@ -34,21 +33,20 @@ coordinates are world axes): floor and ceiling map x → columns, y → rows upw
 front and back walls map x → columns, z → rows upwards. Faces without a texture
 are mid-grey.
 @return 8-bit BGR image of camera.image_size. */
-CV_EXPORTS Mat renderTexturedRoom(const Camera &camera, const Room &room,
-                                  const std::map<std::string, Mat> &textures,
-                                  int supersample = 2);
+CV_EXPORTS Mat renderTexturedRoom(const Camera& camera, const Room& room,
+                                  const std::map<std::string, Mat>& textures, int supersample = 2);
 
 /** @brief A hand-held camera path starting at @p first: a smooth walk of about
 @p travel metres (sideways and forwards) with slow panning, plus hand shake
 (random, band-limited) of @p shake_m metres and @p shake_deg degrees.
 Deterministic in @p seed. */
-CV_EXPORTS std::vector<Camera>
-handheldCameraPath(const Camera &first, int frames, double travel = 1.5,
-                   double shake_m = 0.01, double shake_deg = 0.5, int seed = 1);
+CV_EXPORTS std::vector<Camera> handheldCameraPath(const Camera& first, int frames,
+                                                  double travel = 1.5, double shake_m = 0.01,
+                                                  double shake_deg = 0.5, int seed = 1);
 
 //! @}
 
-} // namespace vbme
-} // namespace cv
+}  // namespace vbme
+}  // namespace cv
 
 #endif
