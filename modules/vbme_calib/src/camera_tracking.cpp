@@ -2,6 +2,8 @@
 // LICENSE).
 #include "opencv2/vbme/calib/camera_tracking.hpp"
 
+#include "camera_refine.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -9,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numeric>
+#include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -158,6 +161,10 @@ CameraPath alignToRoom(const ColmapModel& model, const std::vector<std::string>&
         have[i] = true;
         ++registered;
     }
+    detail::RefineSummary refined;
+    if (opt.refine)
+        refined = detail::refineTrack(model, names, frame0, M, c, s, opt.plane_tolerance,
+                                      opt.smooth_sigma, path);
     // Frames the model lacks: interpolate between registered neighbours, hold
     // beyond the ends.
     int interpolated = 0;
@@ -193,7 +200,11 @@ CameraPath alignToRoom(const ColmapModel& model, const std::vector<std::string>&
         int n = 0;
         for (const auto& kv : model.points)
             se += kv.second.error * kv.second.error, ++n;
-        report->reprojection_rms = n ? std::sqrt(se / n) : 0;
+        // Both RMS figures over the same observations when refined (COLMAP's per-point errors
+        // otherwise).
+        report->reprojection_rms = opt.refine ? refined.rms_before : (n ? std::sqrt(se / n) : 0);
+        report->refined_rms = opt.refine ? refined.rms_after : report->reprojection_rms;
+        report->plane_points = refined.plane_points;
     }
     return path;
 }
@@ -327,6 +338,60 @@ void drawRoomBox(InputOutputArray _image, const Camera& cam, const Room& room, c
         putText(img, caption, Point(10, 10 + cvRound(22 * scale)), FONT_HERSHEY_SIMPLEX, scale,
                 Scalar(255, 255, 255), thick, LINE_AA);
     }
+}
+
+void writeBlenderScript(const std::string& script_path, const CameraPath& path, const Room& room,
+                        double fps) {
+    CV_Assert(path.image_size.area() > 0 && fps > 0);
+    const int w = path.image_size.width, h = path.image_size.height, big = std::max(w, h);
+    std::ostringstream py;
+    py.precision(10);
+    py << "# Camera track written by vbme (" << path.frames.size()
+       << " frames). Run inside Blender:\n"
+       << "#   blender --python " << fs::path(script_path).filename().string() << "\n"
+       << "import bpy\nimport mathutils\n\n"
+       << "scene = bpy.context.scene\n"
+       << "scene.render.resolution_x = " << w << "\nscene.render.resolution_y = " << h << "\n"
+       << "scene.render.resolution_percentage = 100\n"
+       << "scene.render.fps = " << cvRound(fps)
+       << "\nscene.render.fps_base = " << cvRound(fps) / fps << "\n"
+       << "scene.frame_start = 1\nscene.frame_end = " << path.frames.size() << "\n\n"
+       << "data = bpy.data.cameras.new('vbme_camera')\n"
+       << "data.sensor_fit = 'HORIZONTAL'\ndata.sensor_width = 36.0\n"
+       << "data.lens = " << path.K(0, 0) * 36.0 / w << "\n"
+       << "data.shift_x = " << -(path.K(0, 2) - (w - 1) * 0.5) / big << "\n"
+       << "data.shift_y = " << (path.K(1, 2) - (h - 1) * 0.5) / big << "\n"
+       << "cam = bpy.data.objects.new('vbme_camera', data)\n"
+       << "scene.collection.objects.link(cam)\nscene.camera = cam\ncam.rotation_mode = "
+          "'QUATERNION'\n\n"
+       << "# world_from_camera per frame, Blender camera axes (x right, y up, looking down -z)\n"
+       << "frames = [\n";
+    for (const auto& f : path.frames) {
+        // OpenCV camera (y down, z forward) → Blender camera (y up, z backward): flip y and z.
+        const Matx33d Rw = f.R.t() * Matx33d(1, 0, 0, 0, -1, 0, 0, 0, -1);
+        const Vec3d C = -(f.R.t() * f.t);
+        py << "    ((" << Rw(0, 0) << ", " << Rw(0, 1) << ", " << Rw(0, 2) << ", " << C[0] << "), ("
+           << Rw(1, 0) << ", " << Rw(1, 1) << ", " << Rw(1, 2) << ", " << C[1] << "), (" << Rw(2, 0)
+           << ", " << Rw(2, 1) << ", " << Rw(2, 2) << ", " << C[2] << "), (0, 0, 0, 1)),\n";
+    }
+    const Vec3d mid = (room.min + room.max) * 0.5, half = (room.max - room.min) * 0.5;
+    py << "]\nfor i, m in enumerate(frames):\n"
+       << "    cam.matrix_world = mathutils.Matrix(m)\n"
+       << "    cam.keyframe_insert(data_path='location', frame=i + 1)\n"
+       << "    cam.keyframe_insert(data_path='rotation_quaternion', frame=i + 1)\n\n"
+       << "# The room box (metres, z up) as a wireframe cube.\n"
+       << "bpy.ops.mesh.primitive_cube_add(location=(" << mid[0] << ", " << mid[1] << ", " << mid[2]
+       << "))\n"
+       << "room = bpy.context.active_object\nroom.name = 'vbme_room'\n"
+       << "room.scale = (" << half[0] << ", " << half[1] << ", " << half[2] << ")\n"
+       << "room.display_type = 'WIRE'\n";
+    AtomicFile out(script_path);
+    {
+        std::ofstream f(out.tempPath());
+        f << py.str();
+        if (!f) CV_Error(Error::StsError, "cannot write '" + script_path + "'");
+    }
+    out.commit();
 }
 
 ColmapModel toColmapModel(const CameraPath& path) {

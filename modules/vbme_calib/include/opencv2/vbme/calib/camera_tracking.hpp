@@ -53,6 +53,10 @@ struct CV_EXPORTS CameraTrackingOptions {
     bool robust_scale = true;       //!< robust Eq. 5.3 (else the thesis's mean)
     double scale_tolerance = 0.05;  //!< relative tolerance of the robust scale's inliers
     int stride = 1;                 //!< reconstruct every k-th frame (the rest interpolated)
+    bool refine =
+        true;  //!< Ceres bundle adjustment in the room frame, points tied to the box faces
+    double plane_tolerance = 0.05;  //!< points this close (m) to a face are tied to it
+    double smooth_sigma = 0;        //!< > 0: smoothness prior on the trajectory, width in frames
     ColmapOptions colmap;           //!< how COLMAP runs
 };
 
@@ -63,6 +67,8 @@ struct CV_EXPORTS CameraTrackingReport {
     int interpolated = 0;         //!< frames whose pose was interpolated
     int models = 0;               //!< models COLMAP produced (only the one holding frame 0 is used)
     double reprojection_rms = 0;  //!< RMS reprojection error of the used model's points (pixels)
+    double refined_rms = 0;       //!< RMS reprojection error after the refinement (pixels)
+    int plane_points = 0;         //!< points tied to a face of the box in the refinement
     ScaleEstimate scale;          //!< the scale of Eq. 5.3 (robust or mean)
     double seconds = 0;           //!< wall time
 };
@@ -111,6 +117,14 @@ track. */
 CV_EXPORTS void drawRoomBox(InputOutputArray image, const Camera& camera, const Room& room,
                             const Scalar& colour = Scalar(0, 255, 255),
                             const std::string& caption = std::string());
+
+/** @brief Writes a Python script that, run in Blender (`blender --python FILE`, or from its
+Text Editor), creates a camera keyframed on every frame of @p path (OpenCV camera axes turned
+into Blender's, focal length and principal point as lens and shift, frame rate @p fps) and the
+room box as a wireframe cube, so the track can be checked where users check tracks. Written
+atomically. */
+CV_EXPORTS void writeBlenderScript(const std::string& script_path, const CameraPath& path,
+                                   const Room& room, double fps);
 
 /** @brief The aligned track as a COLMAP text model (one PINHOLE camera, one
 image per video frame named frame_%05d.png, no points), for tools that read

@@ -1,0 +1,190 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+#include "camera_refine.hpp"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <array>
+#include <cmath>
+#include <map>
+
+#include <opencv2/calib3d.hpp>
+
+namespace cv {
+namespace vbme {
+namespace detail {
+
+namespace {
+
+// Reprojection residual of a world point in a camera (angle-axis + translation), fixed K.
+struct Reprojection {
+    Reprojection(double u, double v, const Matx33d& K)
+        : u(u), v(v), fx(K(0, 0)), fy(K(1, 1)), cx(K(0, 2)), cy(K(1, 2)) {}
+    template <typename T>
+    bool operator()(const T* pose, const T* X, T* r) const {
+        T p[3];
+        ceres::AngleAxisRotatePoint(pose, X, p);
+        p[0] += pose[3];
+        p[1] += pose[4];
+        p[2] += pose[5];
+        if (p[2] <= T(1e-6)) {
+            r[0] = r[1] = T(0);
+            return true;
+        }
+        r[0] = T(fx) * p[0] / p[2] + T(cx) - T(u);
+        r[1] = T(fy) * p[1] / p[2] + T(cy) - T(v);
+        return true;
+    }
+    double u, v, fx, fy, cx, cy;
+};
+
+// A point tied to a face plane: X[axis] = value, σ = sigma.
+struct OnPlane {
+    OnPlane(int axis, double value, double sigma) : axis(axis), value(value), sigma(sigma) {}
+    template <typename T>
+    bool operator()(const T* X, T* r) const {
+        r[0] = (X[axis] - T(value)) / T(sigma);
+        return true;
+    }
+    int axis;
+    double value, sigma;
+};
+
+// Second difference of three consecutive camera centres and rotations, scaled by 1/σ.
+struct Smooth {
+    Smooth(double sigma_t, double sigma_r) : st(sigma_t), sr(sigma_r) {}
+    template <typename T>
+    bool operator()(const T* a, const T* b, const T* c, T* r) const {
+        // Centres C = −Rᵀ t.
+        T Ca[3], Cb[3], Cc[3], na[3], nb[3], nc[3];
+        for (int k = 0; k < 3; ++k)
+            na[k] = -a[k], nb[k] = -b[k], nc[k] = -c[k];
+        ceres::AngleAxisRotatePoint(na, a + 3, Ca);
+        ceres::AngleAxisRotatePoint(nb, b + 3, Cb);
+        ceres::AngleAxisRotatePoint(nc, c + 3, Cc);
+        for (int k = 0; k < 3; ++k) {
+            r[k] = -(Ca[k] - T(2) * Cb[k] + Cc[k]) / T(st);
+            r[3 + k] =
+                (a[k] - T(2) * b[k] + c[k]) / T(sr);  // small rotations: angle-axis differences
+        }
+        return true;
+    }
+    double st, sr;
+};
+
+}  // namespace
+
+RefineSummary refineTrack(const ColmapModel& model, const std::vector<std::string>& names,
+                          const Scene& frame0, const Matx33d& M, const Vec3d& c, double s,
+                          double plane_tolerance, double smooth_sigma, CameraPath& path) {
+    RefineSummary sum;
+    const Matx33d K = frame0.camera.K;
+    // Poses of the registered frames (angle-axis, t).
+    std::map<int, int> frame_of_image;  // COLMAP image id → video frame
+    std::vector<std::array<double, 6>> poses(names.size());
+    std::vector<bool> registered(names.size(), false);
+    for (size_t i = 0; i < names.size(); ++i) {
+        const ColmapImage* im = model.imageByName(names[i]);
+        if (!im || path.frames[i].source != CameraPath::SFM) continue;
+        frame_of_image[im->id] = (int)i;
+        registered[i] = true;
+        Vec3d rvec;
+        Rodrigues(Mat(path.frames[i].R), rvec);
+        poses[i] = {rvec[0],
+                    rvec[1],
+                    rvec[2],
+                    path.frames[i].t[0],
+                    path.frames[i].t[1],
+                    path.frames[i].t[2]};
+    }
+    // Points in the world: X_w = Mᵀ (s X_sfm − c).
+    std::map<long long, std::array<double, 3>> points;
+    for (const auto& kv : model.points) {
+        const Vec3d X = M.t() * (s * kv.second.xyz - c);
+        points[kv.first] = {X[0], X[1], X[2]};
+    }
+    ceres::Problem problem;
+    double se = 0;
+    for (const auto& [image_id, frame] : frame_of_image) {
+        const ColmapImage& im = model.images.at(image_id);
+        for (size_t k = 0; k < im.xys.size(); ++k) {
+            const long long id = im.point3d_ids[k];
+            auto it = points.find(id);
+            if (id < 0 || it == points.end()) continue;
+            const Reprojection rep(im.xys[k].x - 0.5, im.xys[k].y - 0.5, K);
+            double r[2];
+            rep(poses[frame].data(), it->second.data(), r);
+            se += r[0] * r[0] + r[1] * r[1];
+            ++sum.observations;
+            problem.AddResidualBlock(
+                new ceres::AutoDiffCostFunction<Reprojection, 2, 6, 3>(new Reprojection(rep)),
+                new ceres::HuberLoss(1.0), poses[frame].data(), it->second.data());
+        }
+    }
+    if (sum.observations == 0) return sum;
+    sum.rms_before = std::sqrt(se / sum.observations);
+    // Points on the box faces.
+    const Room& room = frame0.room;
+    for (auto& [id, X] : points) {
+        if (!problem.HasParameterBlock(X.data())) continue;
+        ++sum.points;
+        int best_axis = -1;
+        double best_d = plane_tolerance, value = 0;
+        for (int a = 0; a < 3; ++a)
+            for (double v : {room.min[a], room.max[a]}) {
+                const double d = std::abs(X[a] - v);
+                if (d < best_d) best_d = d, best_axis = a, value = v;
+            }
+        if (best_axis < 0) continue;
+        ++sum.plane_points;
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<OnPlane, 1, 3>(new OnPlane(best_axis, value, 0.01)),
+            new ceres::HuberLoss(1.0), X.data());
+    }
+    // Optional smoothness on consecutive registered frames.
+    if (smooth_sigma > 0) {
+        for (size_t i = 2; i < names.size(); ++i)
+            if (registered[i] && registered[i - 1] && registered[i - 2])
+                // A Whittaker-style smoother: second differences cost more as the smoothing
+                // width grows (σ ∝ 1/width², as for a smoothing spline of that width).
+                problem.AddResidualBlock(new ceres::AutoDiffCostFunction<Smooth, 6, 6, 6, 6>(
+                                             new Smooth(0.002 / (smooth_sigma * smooth_sigma),
+                                                        0.0005 / (smooth_sigma * smooth_sigma))),
+                                         nullptr, poses[i - 2].data(), poses[i - 1].data(),
+                                         poses[i].data());
+    }
+    if (registered[0]) problem.SetParameterBlockConstant(poses[0].data());  // the annotated frame
+    ceres::Solver::Options opt;
+    opt.linear_solver_type = ceres::SPARSE_SCHUR;
+    opt.max_num_iterations = 50;
+    opt.num_threads = 1;  // repeatable
+    ceres::Solver::Summary summary;
+    ceres::Solve(opt, &problem, &summary);
+    sum.iterations = (int)summary.iterations.size();
+
+    se = 0;
+    for (const auto& [image_id, frame] : frame_of_image) {
+        const ColmapImage& im = model.images.at(image_id);
+        for (size_t k = 0; k < im.xys.size(); ++k) {
+            auto it = points.find(im.point3d_ids[k]);
+            if (im.point3d_ids[k] < 0 || it == points.end()) continue;
+            double r[2];
+            Reprojection(im.xys[k].x - 0.5, im.xys[k].y - 0.5, K)(poses[frame].data(),
+                                                                  it->second.data(), r);
+            se += r[0] * r[0] + r[1] * r[1];
+        }
+    }
+    sum.rms_after = std::sqrt(se / sum.observations);
+    for (size_t i = 0; i < names.size(); ++i) {
+        if (!registered[i]) continue;
+        Mat R;
+        Rodrigues(Vec3d(poses[i][0], poses[i][1], poses[i][2]), R);
+        path.frames[i].R = Matx33d(R);
+        path.frames[i].t = Vec3d(poses[i][3], poses[i][4], poses[i][5]);
+    }
+    return sum;
+}
+
+}  // namespace detail
+}  // namespace vbme
+}  // namespace cv

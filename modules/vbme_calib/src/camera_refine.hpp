@@ -1,0 +1,36 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Ceres refinement of an aligned camera track (private to vbme_calib).
+#ifndef VBME_CALIB_CAMERA_REFINE_HPP
+#define VBME_CALIB_CAMERA_REFINE_HPP
+
+#include <string>
+#include <vector>
+
+#include "opencv2/vbme/calib/camera_tracking.hpp"
+
+namespace cv {
+namespace vbme {
+namespace detail {
+
+/** What refineTrack() did. */
+struct RefineSummary {
+    double rms_before = 0, rms_after = 0;  // reprojection RMS (pixels) over all observations
+    int points = 0, plane_points = 0, observations = 0, iterations = 0;
+};
+
+/** Bundle adjustment of the registered frames of @p path (intrinsics fixed, frame 0 held at
+the annotated camera) with the model's points moved into the world frame by the similarity
+(M, c, s) of the alignment. Points lying within @p plane_tolerance of a face of the room box are
+tied to that face (σ = 1 cm), which fixes the scale and the floor height from every frame, not
+from frame 0 alone. With @p smooth_sigma > 0, a prior on the second difference of camera centres
+and rotations (σ = 2 mm and 0.0005 rad divided by smooth_sigma², smooth_sigma in frames) damps
+jitter. */
+RefineSummary refineTrack(const ColmapModel& model, const std::vector<std::string>& names,
+                          const Scene& frame0, const Matx33d& M, const Vec3d& c, double s,
+                          double plane_tolerance, double smooth_sigma, CameraPath& path);
+
+}  // namespace detail
+}  // namespace vbme
+}  // namespace cv
+
+#endif

@@ -1,0 +1,417 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Annotation file IO and the single-frame calibration driver.
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "opencv2/vbme/calib/frame_calibration.hpp"
+#include "room_internal.hpp"
+
+namespace cv {
+namespace vbme {
+
+namespace {
+
+std::vector<double> readNumbers(const FileNode& n, const std::string& field) {
+    std::vector<double> v;
+    if (!n.isSeq()) CV_Error(Error::StsParseError, field + ": expected a sequence of numbers");
+    for (auto it = n.begin(); it != n.end(); ++it) {
+        const FileNode e = *it;
+        if (e.isSeq()) {
+            for (auto jt = e.begin(); jt != e.end(); ++jt) {
+                if (!(*jt).isReal() && !(*jt).isInt())
+                    CV_Error(Error::StsParseError, field + ": expected numbers");
+                v.push_back((double)*jt);
+            }
+        } else if (e.isReal() || e.isInt()) {
+            v.push_back((double)e);
+        } else {
+            CV_Error(Error::StsParseError, field + ": expected numbers");
+        }
+    }
+    return v;
+}
+
+Point2d readPoint(const FileNode& n, const std::string& field) {
+    const std::vector<double> v = readNumbers(n, field);
+    if (v.size() != 2) CV_Error(Error::StsParseError, field + ": expected a point [x, y]");
+    return Point2d(v[0], v[1]);
+}
+
+std::vector<Point2d> readPoints(const FileNode& n, const std::string& field) {
+    std::vector<Point2d> pts;
+    if (!n.isSeq())
+        CV_Error(Error::StsParseError, field + ": expected a sequence of [x, y] points");
+    int i = 0;
+    for (auto it = n.begin(); it != n.end(); ++it, ++i)
+        pts.push_back(readPoint(*it, field + "[" + std::to_string(i) + "]"));
+    return pts;
+}
+
+void writePoints(FileStorage& fs, const std::string& key, const std::vector<Point2d>& pts) {
+    if (!key.empty()) fs << key;
+    fs << "[";
+    for (const auto& p : pts)
+        fs << "[:" << p.x << p.y << "]";
+    fs << "]";
+}
+
+std::map<std::string, std::vector<Point2d>> readEdges(const FileNode& n, const std::string& field) {
+    std::map<std::string, std::vector<Point2d>> m;
+    if (n.empty()) return m;
+    if (!n.isMap()) CV_Error(Error::StsParseError, field + ": expected a map wall → points");
+    for (auto it = n.begin(); it != n.end(); ++it) {
+        const FileNode e = *it;
+        m[e.name()] = readPoints(e, field + "." + e.name());
+    }
+    return m;
+}
+
+/** A string value. FileStorage's YAML reader keeps a trailing "# comment" in plain scalars
+(`face: back  # the window`): drop it and the surrounding blanks. */
+std::string str(const FileNode& n) {
+    std::string v = (std::string)n;
+    const size_t hash = v.find(" #");
+    if (hash != std::string::npos) v = v.substr(0, hash);
+    const size_t b = v.find_first_not_of(" \t"), e = v.find_last_not_of(" \t");
+    return b == std::string::npos ? std::string() : v.substr(b, e - b + 1);
+}
+
+}  // namespace
+
+FrameAnnotation FrameAnnotation::read(const std::string& path) {
+    FileStorage fs;
+    try {
+        // Hand-written YAML often lacks FileStorage's "%YAML:1.0" first line: add it.
+        std::ifstream in(path, std::ios::binary);
+        if (!in) CV_Error(Error::StsObjectNotFound, path + ": cannot open the annotation file");
+        std::stringstream ss;
+        ss << in.rdbuf();
+        std::string text = ss.str();
+        const std::string ext = path.size() >= 4 ? path.substr(path.find_last_of('.') + 1) : "";
+        const bool json = ext == "json" || ext == "JSON";
+        if (!json && text.compare(0, 5, "%YAML") != 0) text = "%YAML:1.0\n" + text;
+        fs.open(text, FileStorage::READ | FileStorage::MEMORY |
+                          (json ? FileStorage::FORMAT_JSON : FileStorage::FORMAT_YAML));
+    } catch (const cv::Exception& e) {
+        if (e.code == Error::StsObjectNotFound) throw;
+        CV_Error(Error::StsParseError, path + ": cannot parse the annotation file: " + e.err);
+    }
+    if (!fs.isOpened())
+        CV_Error(Error::StsObjectNotFound, path + ": cannot open the annotation file");
+    FrameAnnotation a;
+    try {
+        a.read(fs.root(), path);
+    } catch (const cv::Exception& e) {
+        CV_Error(e.code, path + ": " + e.err);
+    }
+    return a;
+}
+
+void FrameAnnotation::read(const FileNode& root, const std::string& source) {
+    *this = FrameAnnotation();
+    if (!root.isMap()) CV_Error(Error::StsParseError, source + ": expected a map at top level");
+    if (!root["image_size"].empty()) {
+        const std::vector<double> s = readNumbers(root["image_size"], "image_size");
+        if (s.size() != 2 || s[0] <= 0 || s[1] <= 0)
+            CV_Error(Error::StsParseError, "image_size: expected [width, height]");
+        image_size = Size((int)s[0], (int)s[1]);
+    }
+    auto num = [&](const char* key, double& v) {
+        const FileNode n = root[key];
+        if (n.empty()) return;
+        if (!n.isReal() && !n.isInt())
+            CV_Error(Error::StsParseError, std::string(key) + ": expected a number");
+        v = (double)n;
+    };
+    num("focal", focal);
+    num("camera_height", camera_height);
+    num("room_height", room_height);
+    if (camera_height < 0 || room_height < 0 || focal < 0)
+        CV_Error(Error::StsParseError,
+                 "focal, camera_height, room_height: expected positive numbers");
+    const FileNode ppn = root["principal_point"];
+    if (!ppn.empty()) {
+        if (ppn.isString()) {
+            if (str(ppn) != "orthocenter" && str(ppn) != "center")
+                CV_Error(Error::StsParseError,
+                         "principal_point: expected [x, y], 'center' or 'orthocenter'");
+            principal_point_from_orthocenter = str(ppn) == "orthocenter";
+        } else {
+            principal_point = readPoint(ppn, "principal_point");
+        }
+    }
+    if (!root["response"].empty()) {
+        response = parseResponse(str(root["response"]));
+        has_response = true;
+    }
+    const FileNode ln = root["lines"];
+    if (!ln.empty()) {
+        if (!ln.isSeq())
+            CV_Error(Error::StsParseError, "lines: expected a sequence of line groups");
+        int gi = 0;
+        for (auto it = ln.begin(); it != ln.end(); ++it, ++gi) {
+            const FileNode g = *it;
+            const std::string f = "lines[" + std::to_string(gi) + "]";
+            LineGroup lg;
+            lg.name = g["name"].empty() ? format("group%d", gi) : str(g["name"]);
+            if (!g["axis"].empty()) lg.axis = parseAxisHint(str(g["axis"]), f + ".axis");
+            const FileNode segs = g["segments"];
+            if (segs.empty() || !segs.isSeq())
+                CV_Error(Error::StsParseError,
+                         f + ".segments: expected a sequence of [x1, y1, x2, y2]");
+            int si = 0;
+            for (auto jt = segs.begin(); jt != segs.end(); ++jt, ++si) {
+                const std::vector<double> v =
+                    readNumbers(*jt, f + ".segments[" + std::to_string(si) + "]");
+                if (v.size() != 4)
+                    CV_Error(Error::StsParseError, f + ".segments[" + std::to_string(si) +
+                                                       "]: expected [x1, y1, x2, y2]");
+                lg.segments.emplace_back(v[0], v[1], v[2], v[3]);
+            }
+            lines.push_back(lg);
+        }
+    }
+    const FileNode rn = root["room"];
+    if (!rn.empty()) {
+        if (!rn.isMap()) CV_Error(Error::StsParseError, "room: expected a map");
+        room.floor_edges = readEdges(rn["floor_edges"], "room.floor_edges");
+        room.ceiling_edges = readEdges(rn["ceiling_edges"], "room.ceiling_edges");
+        const FileNode wc = rn["wall_corners"];
+        if (!wc.empty()) {
+            if (!wc.isSeq())
+                CV_Error(Error::StsParseError, "room.wall_corners: expected a sequence");
+            int ci = 0;
+            for (auto it = wc.begin(); it != wc.end(); ++it, ++ci) {
+                const std::string f = "room.wall_corners[" + std::to_string(ci) + "]";
+                const FileNode c = *it;
+                const FileNode w = c["walls"];
+                if (!w.isSeq() || w.size() != 2)
+                    CV_Error(Error::StsParseError, f + ".walls: expected two wall names");
+                RoomAnnotation::WallCorner corner;
+                corner.wall_a = str(w[0]);
+                corner.wall_b = str(w[1]);
+                corner.points = readPoints(c["points"], f + ".points");
+                room.wall_corners.push_back(corner);
+            }
+        }
+        const FileNode fc = rn["faces"];
+        if (!fc.empty()) {
+            if (!fc.isMap())
+                CV_Error(Error::StsParseError, "room.faces: expected a map face → metres");
+            for (auto it = fc.begin(); it != fc.end(); ++it) {
+                const FileNode e = *it;
+                detail::faceIndex(e.name(), "room.faces." + e.name());
+                if (!e.isReal() && !e.isInt())
+                    CV_Error(Error::StsParseError,
+                             "room.faces." + e.name() + ": expected a number");
+                room.faces[e.name()] = (double)e;
+            }
+        }
+    }
+    const FileNode lt = root["lights"];
+    if (!lt.empty()) {
+        if (!lt.isSeq()) CV_Error(Error::StsParseError, "lights: expected a sequence");
+        int li = 0;
+        for (auto it = lt.begin(); it != lt.end(); ++it, ++li) {
+            const std::string f = "lights[" + std::to_string(li) + "]";
+            const FileNode l = *it;
+            LightAnnotation la;
+            la.polygon = readPoints(l["polygon"], f + ".polygon");
+            if (la.polygon.size() < 3)
+                CV_Error(Error::StsParseError, f + ".polygon: expected at least 3 points");
+            if (!l["face"].empty()) {
+                la.face = str(l["face"]);
+                detail::faceIndex(la.face, f + ".face");
+            }
+            if (!l["radiance"].empty()) {
+                la.radiance = readVec3(l["radiance"], f + ".radiance");
+                la.has_radiance = true;
+            }
+            lights.push_back(la);
+        }
+    }
+}
+
+void FrameAnnotation::write(FileStorage& fs) const {
+    if (image_size.area() > 0)
+        fs << "image_size"
+           << "[:" << image_size.width << image_size.height << "]";
+    if (focal > 0) fs << "focal" << focal;
+    if (principal_point_from_orthocenter)
+        fs << "principal_point"
+           << "orthocenter";
+    else if (principal_point.x >= 0 && principal_point.y >= 0)
+        fs << "principal_point"
+           << "[:" << principal_point.x << principal_point.y << "]";
+    if (camera_height > 0) fs << "camera_height" << camera_height;
+    if (room_height > 0) fs << "room_height" << room_height;
+    if (has_response) fs << "response" << toString(response);
+    if (!lines.empty()) {
+        fs << "lines"
+           << "[";
+        for (const auto& g : lines) {
+            fs << "{"
+               << "name" << g.name << "axis" << toString(g.axis) << "segments"
+               << "[";
+            for (const auto& s : g.segments)
+                fs << "[:" << s[0] << s[1] << s[2] << s[3] << "]";
+            fs << "]"
+               << "}";
+        }
+        fs << "]";
+    }
+    if (!room.empty()) {
+        fs << "room"
+           << "{";
+        if (!room.floor_edges.empty()) {
+            fs << "floor_edges"
+               << "{";
+            for (const auto& kv : room.floor_edges)
+                writePoints(fs, kv.first, kv.second);
+            fs << "}";
+        }
+        if (!room.ceiling_edges.empty()) {
+            fs << "ceiling_edges"
+               << "{";
+            for (const auto& kv : room.ceiling_edges)
+                writePoints(fs, kv.first, kv.second);
+            fs << "}";
+        }
+        if (!room.wall_corners.empty()) {
+            fs << "wall_corners"
+               << "[";
+            for (const auto& c : room.wall_corners) {
+                fs << "{"
+                   << "walls"
+                   << "[:" << c.wall_a << c.wall_b << "]";
+                writePoints(fs, "points", c.points);
+                fs << "}";
+            }
+            fs << "]";
+        }
+        if (!room.faces.empty()) {
+            fs << "faces"
+               << "{";
+            for (const auto& kv : room.faces)
+                fs << kv.first << kv.second;
+            fs << "}";
+        }
+        fs << "}";
+    }
+    if (!lights.empty()) {
+        fs << "lights"
+           << "[";
+        for (const auto& l : lights) {
+            fs << "{";
+            writePoints(fs, "polygon", l.polygon);
+            if (!l.face.empty()) fs << "face" << l.face;
+            if (l.has_radiance) writeVec3(fs, "radiance", l.radiance);
+            fs << "}";
+        }
+        fs << "]";
+    }
+}
+
+void FrameAnnotation::write(const std::string& path) const {
+    AtomicFile out(path);
+    {
+        FileStorage fs(out.tempPath(), FileStorage::WRITE);
+        if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot write");
+        write(fs);
+    }
+    out.commit();
+}
+
+Scene calibrateFrame(InputArray image_, const FrameAnnotation& ann,
+                     const FrameCalibrationOptions& opt, FrameCalibration* calibration) {
+    Mat image = image_.getMat();
+    if (image.empty()) CV_Error(Error::StsBadArg, "calibrateFrame: the image is empty");
+    if (image.type() == CV_8UC1) cvtColor(image, image, COLOR_GRAY2BGR);
+    if (image.type() != CV_8UC3)
+        CV_Error(Error::StsBadArg, "calibrateFrame: expected an 8-bit BGR image");
+    const Size size = image.size();
+    if (ann.image_size.area() > 0 && ann.image_size != size)
+        CV_Error(Error::StsBadArg,
+                 format("the annotation is for a %dx%d image but the image is %dx%d",
+                        ann.image_size.width, ann.image_size.height, size.width, size.height));
+    VanishingPointCalibrator::Params vp = opt.vp;
+    if (vp.focal <= 0 && ann.focal > 0) vp.focal = ann.focal;
+    if (vp.principal_point.x < 0 && ann.principal_point.x >= 0 && ann.principal_point.y >= 0)
+        vp.principal_point = ann.principal_point;
+    if (ann.principal_point_from_orthocenter) vp.principal_point_from_orthocenter = true;
+    Ptr<VanishingPointCalibrator> cal = VanishingPointCalibrator::create(vp);
+    FrameCalibration fc;
+    if (!ann.lines.empty())
+        fc = cal->calibrate(ann.lines, size);
+    else if (opt.auto_detect)
+        fc = cal->detect(image);
+    else
+        CV_Error(Error::StsBadArg,
+                 "the annotation has no 'lines' and automatic detection is off; "
+                 "add line groups or detect them automatically (--auto)");
+    Scene scene;
+    scene.image_size = size;
+    Camera cam = fc.camera();
+    cam.response = ann.has_response ? ann.response : Response::SRGB;
+    const double h = opt.camera_height > 0 ? opt.camera_height : ann.camera_height;
+    if (!ann.room.empty()) {
+        if (h > 0) {
+            placeCamera(cam, h);
+            scene.room = fitRoom(cam, ann.room);
+        } else {
+            // Unknown height: fit in units of the camera height from the clicks alone, then
+            // scale by a face whose distance is known (or the room height).
+            Camera unit = cam;
+            placeCamera(unit, 1.0);
+            double value[6];
+            bool known[6];
+            detail::solveFaces(unit, ann.room, false, value, known);
+            std::map<std::string, double> given = ann.room.faces;
+            if (ann.room_height > 0) given["ceiling"] = ann.room_height;
+            double scale = 0;
+            for (const auto& kv : given) {
+                const int f = detail::faceIndex(kv.first, "room.faces." + kv.first);
+                if (f > 0 && known[f] && std::abs(value[f]) > 1e-9 && kv.second / value[f] > 0) {
+                    scale = kv.second / value[f];
+                    break;
+                }
+            }
+            if (!(scale > 0))
+                CV_Error(Error::StsBadArg,
+                         "the camera height is unknown: give it (camera_height, --camera-height), "
+                         "or the room height with ceiling-edge points (room_height), or the "
+                         "distance of a face whose edge is clicked (room.faces)");
+            placeCamera(cam, scale);
+            RoomAnnotation ra = ann.room;
+            if (ann.room_height > 0 && !ra.faces.count("ceiling"))
+                ra.faces["ceiling"] = ann.room_height;
+            scene.room = fitRoom(cam, ra);
+        }
+        scene.has_room = true;
+    } else {
+        placeCamera(cam, h > 0 ? h : opt.default_camera_height);
+    }
+    if (!ann.lights.empty()) {
+        if (!scene.has_room)
+            CV_Error(Error::StsBadArg,
+                     "the annotation has lights but no room: light polygons are "
+                     "projected onto the room box; annotate the room");
+        for (size_t i = 0; i < ann.lights.size(); ++i) {
+            try {
+                scene.lights.push_back(
+                    projectLight(cam, scene.room, ann.lights[i], image, cam.response));
+            } catch (const cv::Exception& e) {
+                CV_Error(e.code, format("lights[%d]: ", (int)i) + e.err);
+            }
+        }
+    }
+    scene.camera = cam;
+    if (calibration) *calibration = fc;
+    return scene;
+}
+
+}  // namespace vbme
+}  // namespace cv

@@ -1,0 +1,219 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Synthetic box-room pictures (an oracle for tests and benchmarks) and the calibration overlay.
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "opencv2/vbme/calib/frame_calibration.hpp"
+#include "opencv2/vbme/calib/synthetic.hpp"
+
+namespace cv {
+namespace vbme {
+
+bool projectSegment(const Camera& camera, const Vec3d& a, const Vec3d& b, Point2d& pa, Point2d& pb,
+                    double near_z) {
+    Vec3d ca = camera.camFromWorld(a), cb = camera.camFromWorld(b);
+    if (ca[2] < near_z && cb[2] < near_z) return false;
+    if (ca[2] < near_z) ca = ca + (cb - ca) * ((near_z - ca[2]) / (cb[2] - ca[2]));
+    if (cb[2] < near_z) cb = cb + (ca - cb) * ((near_z - cb[2]) / (ca[2] - cb[2]));
+    const Vec3d pa3 = camera.K * ca, pb3 = camera.K * cb;
+    pa = Point2d(pa3[0] / pa3[2], pa3[1] / pa3[2]);
+    pb = Point2d(pb3[0] / pb3[2], pb3[1] / pb3[2]);
+    return true;
+}
+
+namespace {
+
+constexpr int kShift = 8;
+
+Point toFixed(const Point2d& p) {
+    // Pixel centres at integers: OpenCV's fixed-point drawing uses the same convention.
+    const double s = 1 << kShift;
+    const double lim = 1e6;
+    return Point(cvRound(std::max(-lim, std::min(lim, p.x)) * s),
+                 cvRound(std::max(-lim, std::min(lim, p.y)) * s));
+}
+
+/** Clips a world polygon to z_cam ≥ near and projects it. */
+std::vector<Point2d> projectPolygon(const Camera& cam, const std::vector<Vec3d>& poly,
+                                    double near_z) {
+    std::vector<Vec3d> in, out;
+    for (const auto& p : poly)
+        in.push_back(cam.camFromWorld(p));
+    for (size_t i = 0; i < in.size(); ++i) {
+        const Vec3d& a = in[i];
+        const Vec3d& b = in[(i + 1) % in.size()];
+        const bool ia = a[2] >= near_z, ib = b[2] >= near_z;
+        if (ia) out.push_back(a);
+        if (ia != ib) out.push_back(a + (b - a) * ((near_z - a[2]) / (b[2] - a[2])));
+    }
+    std::vector<Point2d> px;
+    for (const auto& c : out) {
+        const Vec3d p = cam.K * c;
+        px.emplace_back(p[0] / p[2], p[1] / p[2]);
+    }
+    return px;
+}
+
+/** Corners of a box face, in world coordinates. */
+std::vector<Vec3d> faceCorners(const Room& r, int face) {
+    const Vec3d& a = r.min;
+    const Vec3d& b = r.max;
+    switch (face) {
+        case 0:
+            return {{a[0], a[1], a[2]}, {b[0], a[1], a[2]}, {b[0], b[1], a[2]}, {a[0], b[1], a[2]}};
+        case 1:
+            return {{a[0], a[1], b[2]}, {b[0], a[1], b[2]}, {b[0], b[1], b[2]}, {a[0], b[1], b[2]}};
+        case 2:
+            return {{a[0], a[1], a[2]}, {a[0], b[1], a[2]}, {a[0], b[1], b[2]}, {a[0], a[1], b[2]}};
+        case 3:
+            return {{b[0], a[1], a[2]}, {b[0], b[1], a[2]}, {b[0], b[1], b[2]}, {b[0], a[1], b[2]}};
+        case 4:
+            return {{a[0], a[1], a[2]}, {b[0], a[1], a[2]}, {b[0], a[1], b[2]}, {a[0], a[1], b[2]}};
+        default:
+            return {{a[0], b[1], a[2]}, {b[0], b[1], a[2]}, {b[0], b[1], b[2]}, {a[0], b[1], b[2]}};
+    }
+}
+
+}  // namespace
+
+Mat drawSyntheticRoom(const Camera& camera, const Room& room, double tile, double noise_sigma,
+                      int seed) {
+    CV_Assert(camera.image_size.area() > 0 && tile > 0);
+    Mat img(camera.image_size, CV_8UC3, Scalar::all(0));
+    static const double grey[6] = {95, 215, 150, 175, 125, 195};
+    const double near_z = 0.02;
+    for (int f = 0; f < 6; ++f) {
+        const std::vector<Point2d> px = projectPolygon(camera, faceCorners(room, f), near_z);
+        if (px.size() < 3) continue;
+        std::vector<Point> fx;
+        for (const auto& p : px)
+            fx.push_back(toFixed(p));
+        const Scalar col(grey[f] * 0.9, grey[f], grey[f] * 1.05);
+        fillPoly(img, std::vector<std::vector<Point>>{fx}, col, LINE_AA, kShift);
+    }
+    // Pattern lines along the axes on every face.
+    for (int f = 0; f < 6; ++f) {
+        const int ax = f <= 1 ? 2 : (f <= 3 ? 0 : 1);
+        const double coord = (f % 2 == 0) ? room.min[ax] : room.max[ax];
+        const int u = (ax + 1) % 3, v = (ax + 2) % 3;
+        const Scalar col = Scalar::all(grey[f] - 60);
+        for (int dir = 0; dir < 2; ++dir) {
+            const int along = dir == 0 ? u : v, across = dir == 0 ? v : u;
+            const double first = std::ceil((room.min[across] + 1e-9) / tile) * tile;
+            for (double c = first; c < room.max[across] - 1e-9; c += tile) {
+                Vec3d a, b;
+                a[ax] = b[ax] = coord;
+                a[across] = b[across] = c;
+                a[along] = room.min[along];
+                b[along] = room.max[along];
+                Point2d pa, pb;
+                if (!projectSegment(camera, a, b, pa, pb, near_z)) continue;
+                line(img, toFixed(pa), toFixed(pb), col, 2, LINE_AA, kShift);
+            }
+        }
+    }
+    if (noise_sigma > 0) {
+        RNG rng((uint64)seed * 7919 + 1);
+        Mat noise(img.size(), CV_32FC3);
+        rng.fill(noise, RNG::NORMAL, 0, noise_sigma);
+        Mat f;
+        img.convertTo(f, CV_32FC3);
+        f += noise;
+        f.convertTo(img, CV_8UC3);
+    }
+    return img;
+}
+
+void drawCalibrationOverlay(InputArray image, OutputArray overlay_, const Scene& scene,
+                            const FrameCalibration& fc) {
+    Mat src = image.getMat();
+    CV_Assert(!src.empty());
+    Mat out;
+    if (src.type() == CV_8UC1)
+        cvtColor(src, out, COLOR_GRAY2BGR);
+    else {
+        CV_Assert(src.type() == CV_8UC3);
+        out = src.clone();
+    }
+    const Camera& cam = scene.camera;
+    const Scalar axis_col[3] = {Scalar(60, 60, 255), Scalar(60, 220, 60), Scalar(255, 120, 40)};
+    const int thick = std::max(1, (int)std::lround(std::max(out.cols, out.rows) / 500.0));
+    // Light polygons (filled, translucent).
+    if (!scene.lights.empty()) {
+        Mat layer = out.clone();
+        for (const auto& l : scene.lights) {
+            if (l.type != Light::POLYGON) continue;
+            std::vector<Point2d> px = projectPolygon(cam, l.corners, 0.02);
+            if (px.size() < 3) continue;
+            std::vector<Point> fx;
+            for (const auto& p : px)
+                fx.push_back(toFixed(p));
+            fillPoly(layer, std::vector<std::vector<Point>>{fx}, Scalar(0, 230, 255), LINE_AA,
+                     kShift);
+            polylines(out, std::vector<std::vector<Point>>{fx}, true, Scalar(0, 200, 255), thick,
+                      LINE_AA, kShift);
+        }
+        addWeighted(layer, 0.35, out, 0.65, 0, out);
+    }
+    // Segments coloured by axis.
+    for (size_t i = 0; i < fc.segments.size(); ++i) {
+        const Vec4f& s = fc.segments[i];
+        const int a = i < fc.labels.size() ? fc.labels[i] : -1;
+        line(out, toFixed(Point2d(s[0], s[1])), toFixed(Point2d(s[2], s[3])),
+             a >= 0 ? axis_col[a] : Scalar(128, 128, 128), thick, LINE_AA, kShift);
+    }
+    // Box wireframe.
+    if (scene.has_room) {
+        const Vec3d& a = scene.room.min;
+        const Vec3d& b = scene.room.max;
+        for (int e = 0; e < 12; ++e) {
+            const int axis = e / 4, k = e % 4;
+            const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+            Vec3d p, q;
+            p[u] = q[u] = (k & 1) ? b[u] : a[u];
+            p[v] = q[v] = (k & 2) ? b[v] : a[v];
+            p[axis] = a[axis];
+            q[axis] = b[axis];
+            Point2d pa, pb;
+            if (projectSegment(cam, p, q, pa, pb, 0.02))
+                line(out, toFixed(pa), toFixed(pb), Scalar(255, 255, 255), thick + 1, LINE_AA,
+                     kShift);
+        }
+    }
+    // Horizon: image of the plane's line at infinity, l = K^-T R e_z.
+    {
+        const Vec3d z(cam.R(0, 2), cam.R(1, 2), cam.R(2, 2));
+        const Vec3d l = cam.K.inv().t() * z;
+        if (std::abs(l[1]) > 1e-12 * std::abs(l[0])) {
+            const double y0 = -(l[2]) / l[1], y1 = -(l[2] + l[0] * (out.cols - 1)) / l[1];
+            line(out, toFixed(Point2d(0, y0)), toFixed(Point2d(out.cols - 1, y1)),
+                 Scalar(255, 0, 255), thick, LINE_AA, kShift);
+        }
+    }
+    // Vanishing points (when within three image sizes) with rays to the image centre.
+    const Point2d centre = imageCenter(out.size());
+    for (int a = 0; a < 3; ++a) {
+        const Vec3d v = fc.vanishing_points[a];
+        if (std::abs(v[2]) < 1e-12) continue;
+        const Point2d p(v[0] / v[2], v[1] / v[2]);
+        if (std::abs(p.x - centre.x) > 3 * out.cols || std::abs(p.y - centre.y) > 3 * out.rows)
+            continue;
+        circle(out, toFixed(p), 6 * thick << kShift, axis_col[a], thick + 1, LINE_AA, kShift);
+        line(out, toFixed(p), toFixed(centre), axis_col[a], 1, LINE_AA, kShift);
+        const char* nm[3] = {"x", "y", "z"};
+        putText(out, std::string("VP ") + nm[a], Point(cvRound(p.x) + 8, cvRound(p.y) - 8),
+                FONT_HERSHEY_SIMPLEX, 0.5 * thick, axis_col[a], thick, LINE_AA);
+    }
+    const double fov = 2 * std::atan2(out.cols * 0.5, cam.K(0, 0)) * 180 / CV_PI;
+    const std::string caption = format("f = %.1f px (hfov %.1f deg), confidence %.2f, rms %.2f px",
+                                       cam.K(0, 0), fov, fc.confidence, fc.rms_px);
+    putText(out, caption, Point(10, 20), FONT_HERSHEY_SIMPLEX, 0.5 * thick, Scalar(0, 0, 0),
+            3 * thick, LINE_AA);
+    putText(out, caption, Point(10, 20), FONT_HERSHEY_SIMPLEX, 0.5 * thick, Scalar(255, 255, 255),
+            thick, LINE_AA);
+    out.copyTo(overlay_);
+}
+
+}  // namespace vbme
+}  // namespace cv

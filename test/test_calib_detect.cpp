@@ -1,0 +1,179 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Automatic vanishing-point detection on synthetic room pictures with known cameras.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/vbme/calib.hpp>
+
+using namespace cv;
+using namespace cv::vbme;
+
+namespace {
+
+double rotationErrorDeg(const Matx33d& A, const Matx33d& B) {
+    const Matx33d D = A.t() * B;
+    return std::acos(std::max(-1.0, std::min(1.0, (trace(D) - 1) / 2))) * 180 / CV_PI;
+}
+
+Matx33d rotAxis(const Vec3d& axis, double deg) {
+    Matx33d R;
+    Rodrigues(axis * (deg * CV_PI / 180), R);
+    return R;
+}
+
+Camera roomCamera(double f, double yaw, double pitch, double roll, double height, Size size) {
+    Camera c = Camera::fromFocal(f, size);
+    const Matx33d R0(1, 0, 0, 0, 0, -1, 0, 1, 0);
+    c.R = rotAxis(Vec3d(0, 0, 1), roll) * rotAxis(Vec3d(1, 0, 0), -pitch) * R0 *
+          rotAxis(Vec3d(0, 0, 1), -yaw);
+    placeCamera(c, height);
+    return c;
+}
+
+Room testRoom() {
+    Room r;
+    r.min = Vec3d(-2.2, -1.4, 0);
+    r.max = Vec3d(2.6, 4.1, 2.7);
+    return r;
+}
+
+}  // namespace
+
+TEST(CalibDetect, SyntheticRoomsFocalWithin5PercentRotationWithin1Degree) {
+    const Size size(640, 480);
+    RNG rng(21);
+    auto cal = VanishingPointCalibrator::create();
+    double worst_f = 0, worst_r = 0;
+    for (int trial = 0; trial < 8; ++trial) {
+        const double f = rng.uniform(400.0, 1000.0);
+        const double yaw = rng.uniform(15.0, 38.0) * (trial % 2 ? 1 : -1);
+        const Camera c = roomCamera(f, yaw, -rng.uniform(5.0, 25.0), rng.uniform(-5.0, 5.0),
+                                    rng.uniform(1.2, 1.8), size);
+        const Mat img = drawSyntheticRoom(c, testRoom(), 0.5, 2.0, trial);
+        const FrameCalibration fc = cal->detect(img);
+        const double fe = std::abs(fc.focal() / f - 1), re = rotationErrorDeg(fc.R, c.R);
+        worst_f = std::max(worst_f, fe);
+        worst_r = std::max(worst_r, re);
+        EXPECT_LT(fe, 0.05) << "trial " << trial << " f " << f << " got " << fc.focal();
+        EXPECT_LT(re, 1.0) << "trial " << trial;
+        EXPECT_GT(fc.confidence, 0.5) << "trial " << trial;
+        if (std::getenv("VBME_KEEP_TEST_FILES")) {
+            Scene s;
+            s.camera = fc.camera();
+            placeCamera(s.camera, c.center()[2]);
+            s.image_size = size;
+            s.has_room = true;
+            s.room = testRoom();
+            Mat ov;
+            drawCalibrationOverlay(img, ov, s, fc);
+            imwrite(format("/tmp/calib_detect_%d.png", trial), ov);
+        }
+    }
+    std::printf("auto detection: worst focal error %.2f %%, worst rotation error %.3f deg\n",
+                100 * worst_f, worst_r);
+}
+
+TEST(CalibDetect, KnownFocalUsesTheTwoPlusOneHypothesis) {
+    const Size size(640, 480);
+    const Camera c = roomCamera(600, 30, -12, 2, 1.5, size);
+    VanishingPointCalibrator::Params p;
+    p.focal = 600;
+    const FrameCalibration fc =
+        VanishingPointCalibrator::create(p)->detect(drawSyntheticRoom(c, testRoom(), 0.5, 2.0, 1));
+    EXPECT_DOUBLE_EQ(fc.focal(), 600);
+    EXPECT_LT(rotationErrorDeg(fc.R, c.R), 0.5);
+}
+
+TEST(CalibDetect, DeterministicForAGivenSeed) {
+    const Size size(640, 480);
+    const Camera c = roomCamera(700, -25, -15, 0, 1.6, size);
+    const Mat img = drawSyntheticRoom(c, testRoom(), 0.5, 2.0, 3);
+    auto cal = VanishingPointCalibrator::create();
+    const FrameCalibration a = cal->detect(img), b = cal->detect(img);
+    EXPECT_EQ(a.focal(), b.focal());
+    EXPECT_EQ(norm(Mat(a.R), Mat(b.R), NORM_INF), 0);
+}
+
+TEST(CalibDetect, FeaturelessImageIsRejected) {
+    Mat img(480, 640, CV_8UC3, Scalar::all(128));
+    circle(img, Point(320, 240), 100, Scalar::all(30), -1, LINE_AA);
+    try {
+        FrameCalibration fc = VanishingPointCalibrator::create()->detect(img);
+        FAIL() << "detected vanishing points in a picture of a disc: conf " << fc.confidence
+               << " support " << fc.support[0] << " " << fc.support[1] << " " << fc.support[2]
+               << " segments " << fc.segments.size();
+    } catch (const cv::Exception& e) {
+        EXPECT_FALSE(e.err.empty());
+    }
+}
+
+TEST(CalibDetect, SyntheticPicturesPutPixelCentresAtIntegers) {
+    // A camera looking straight at the back wall: the wall's vertical pattern line at x = 0 lies
+    // on the optical axis' column, which must be drawn centred on column (w − 1) / 2 = 319.5,
+    // i.e. split evenly between columns 319 and 320.
+    const Size size(640, 480);
+    Camera c = roomCamera(500, 0, 0, 0, 1.5, size);
+    Room r;
+    r.min = Vec3d(-2, -1, 0);
+    r.max = Vec3d(2, 3, 3);
+    const Mat img = drawSyntheticRoom(c, r, 1.0, 0, 0);
+    Mat gray;
+    cvtColor(img, gray, COLOR_BGR2GRAY);
+    const int row = 240;
+    double sum = 0, sumx = 0;
+    const double bg = gray.at<uchar>(row, 300);
+    for (int x = 310; x <= 330; ++x) {
+        const double d = std::max(0.0, bg - gray.at<uchar>(row, x));
+        sum += d;
+        sumx += d * x;
+    }
+    ASSERT_GT(sum, 0);
+    EXPECT_NEAR(sumx / sum, 319.5, 0.05);
+}
+
+TEST(CalibDetect, ClutterOfNonManhattanLinesIsRejectedAsOutliers) {
+    // 60 random segments at random angles (a third of all detected segments) and some blobs
+    // drawn over the room: the Manhattan frame must still be found.
+    const Size size(640, 480);
+    RNG rng(33);
+    auto cal = VanishingPointCalibrator::create();
+    for (int trial = 0; trial < 3; ++trial) {
+        const double f = rng.uniform(450.0, 800.0);
+        const Camera c = roomCamera(f, rng.uniform(18.0, 35.0) * (trial % 2 ? 1 : -1),
+                                    -rng.uniform(5.0, 20.0), rng.uniform(-3.0, 3.0), 1.5, size);
+        Mat img = drawSyntheticRoom(c, testRoom(), 0.5, 0, 0);
+        for (int k = 0; k < 60; ++k) {
+            const Point2d a(rng.uniform(0, size.width), rng.uniform(0, size.height));
+            const double ang = rng.uniform(0.0, CV_PI), len = rng.uniform(40.0, 160.0);
+            const Point2d b = a + Point2d(std::cos(ang), std::sin(ang)) * len;
+            line(img, a, b, Scalar::all(rng.uniform(0, 60)), 2, LINE_AA);
+        }
+        for (int k = 0; k < 8; ++k)
+            circle(img, Point(rng.uniform(0, size.width), rng.uniform(0, size.height)),
+                   rng.uniform(10, 40), Scalar(rng.uniform(0, 255), 90, 200), -1, LINE_AA);
+        const FrameCalibration fc = cal->detect(img);
+        EXPECT_LT(std::abs(fc.focal() / f - 1), 0.05) << "trial " << trial;
+        EXPECT_LT(rotationErrorDeg(fc.R, c.R), 1.0) << "trial " << trial;
+        std::printf("clutter %d: focal error %.2f %%, rotation error %.3f deg, confidence %.2f\n",
+                    trial, 100 * std::abs(fc.focal() / f - 1), rotationErrorDeg(fc.R, c.R),
+                    fc.confidence);
+        int outliers = 0;
+        for (int l : fc.labels)
+            outliers += l < 0;
+        EXPECT_GT(outliers, 20) << "trial " << trial;  // the clutter is not explained
+        if (std::getenv("VBME_KEEP_TEST_FILES")) {
+            Scene s;
+            s.camera = fc.camera();
+            placeCamera(s.camera, 1.5);
+            s.image_size = size;
+            Mat ov;
+            drawCalibrationOverlay(img, ov, s, fc);
+            imwrite(format("/tmp/calib_clutter_%d.png", trial), ov);
+        }
+    }
+}
