@@ -1,5 +1,6 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-// Renders a scene file with the vbme_render C++ API and writes an EXR and a preview PNG.
+// Renders a scene file with the vbme_render C++ API and writes an EXR and a PNG (encoded with
+// the scene camera's response) next to it.
 //
 //   vbme_sample_render_scene scene.yml out.exr [spp]
 #include <cstdio>
@@ -23,7 +24,9 @@ int main(int argc, char** argv) {
         cv::vbme::writeExr(argv[2], img, {{"vbme.seed", std::to_string(p.seed)}});
         cv::Mat png;
         cv::vbme::encode(img.color, png, scene.camera.response);
-        cv::vbme::imwriteAtomic(std::string(argv[2]) + ".png", png);
+        std::string png_path = argv[2];
+        png_path = png_path.substr(0, png_path.rfind('.')) + ".png";  // out.exr → out.png
+        cv::vbme::imwriteAtomic(png_path, png);
         std::printf("%.3f s, %d spp, %.3g paths/s\n", st.seconds, p.spp, st.paths / st.seconds);
     } catch (const cv::Exception& e) {
         std::fprintf(stderr, "error: %s\n", e.err.c_str());

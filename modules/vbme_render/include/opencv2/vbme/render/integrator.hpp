@@ -1,0 +1,115 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+#ifndef OPENCV_VBME_RENDER_INTEGRATOR_HPP
+#define OPENCV_VBME_RENDER_INTEGRATOR_HPP
+
+#include <opencv2/core.hpp>
+
+#include "opencv2/vbme/core/camera.hpp"
+#include "opencv2/vbme/core/progress.hpp"
+#include "opencv2/vbme/core/scene.hpp"
+#include "opencv2/vbme/render/film.hpp"
+#include "opencv2/vbme/render/scene.hpp"
+
+namespace cv {
+namespace vbme {
+
+//! @addtogroup vbme_render
+//! @{
+
+/** @brief Figures of one render. */
+struct CV_EXPORTS RenderStats {
+    double seconds = 0;  //!< wall-clock time of the render
+    int64 paths = 0;     //!< camera paths traced (pixels × spp)
+    int64 rays = 0;      //!< rays traced (closest-hit and shadow)
+};
+
+/** @brief The path tracer: renders a RenderScene through a camera.
+
+Integrators:
+- **PATH** (default): unidirectional path tracing @cite Kajiya1986 with next-event estimation
+  and multiple importance sampling (power heuristic) between light sampling and BSDF sampling
+  @cite Veach1995, Russian roulette from depth `rr_depth` (survival max(βmax, 0.05)), at most
+  `max_depth` bounces (`max_depth` = 1 is direct lighting: the camera ray's hit, one shadow
+  ray and one BSDF ray whose emitter hit is weighted by MIS). One light per vertex is chosen
+  uniformly among the scene's lights, or mostly by power (Params::light_selection).
+- **REFERENCE**: BSDF sampling only, emission collected where paths hit it (no NEE, no MIS);
+  cannot see point lights or zero-angle distant lights. Used by the tests as a cross-check.
+
+Light inside dielectrics is attenuated by Beer–Lambert absorption over the distance travelled
+inside (Bsdf::absorption() of the surface through which the path leaves).
+
+Determinism: each pixel is the mean of its own samples, and every random number is
+SobolSampler(seed).get(pixel, sample, dimension) with dimensions fixed per path vertex
+(PathDims), so a render is bitwise identical for any number of threads, and a render without
+the `objects:` (Params::with_objects = false) draws the same numbers for the same
+(pixel, sample, dimension) as the render with them. Tiles are rendered in parallel with TBB.
+*/
+class CV_EXPORTS Renderer {
+public:
+    /** @brief Light transport algorithm. */
+    enum Integrator {
+        PATH = 0,      //!< path tracing with NEE and MIS
+        REFERENCE = 1  //!< BSDF sampling only
+    };
+    /** @brief How next-event estimation picks the light of a vertex. */
+    enum LightSelection {
+        LIGHTS_UNIFORM = 0,  //!< every light equally likely (default)
+        LIGHTS_POWER = 1     //!< 90 % by Emitter::power() (lights at infinity through a disk of
+                             //!< the scene's radius), 10 % uniform so that none is starved
+    };
+    /** @brief Parses "uniform" or "power". */
+    static int parseLightSelection(const std::string& name);
+    /** @brief Render options. */
+    struct CV_EXPORTS Params {
+        Params();                        //!< Defaults as below.
+        int spp = 32;                    //!< samples per pixel
+        int max_depth = 8;               //!< maximum number of bounces (≥ 1)
+        uint64 seed = 0;                 //!< sampler seed
+        int threads = 0;                 //!< worker threads (0: all cores)
+        int integrator = PATH;           //!< Integrator
+        bool with_objects = true;        //!< false: render without the `objects:` meshes
+        FilterType filter = FILTER_BOX;  //!< pixel reconstruction filter
+        float clamp = 0.f;               //!< firefly clamp on a sample's largest channel (0: off)
+        int rr_depth = 3;                //!< first bounce at which Russian roulette may end a path
+        int tile_size = 16;              //!< tile edge in pixels (parallel work unit)
+        bool aovs = true;                //!< also produce albedo, normal and object images
+        int light_selection = LIGHTS_UNIFORM;  //!< LightSelection
+
+        /** @brief spp, max_depth and seed from a scene's render settings. */
+        static Params fromScene(const RenderSettings& s);
+        /** @brief Reads the fields present in @p fn. */
+        void read(const FileNode& fn);
+        /** @brief Writes the fields. */
+        void write(FileStorage& fs) const;
+    };
+
+    virtual ~Renderer();
+    /** @brief A renderer with the given options. */
+    static Ptr<Renderer> create(const Params& params = Params());
+    /** @brief The options. */
+    virtual const Params& getParams() const = 0;
+    /** @brief Changes the options. */
+    virtual void setParams(const Params& params) = 0;
+
+    /** @brief Renders @p scene through @p camera at camera.image_size (scale it with
+    Camera::scaled() to render at another size).
+    @param scene the scene.
+    @param camera the camera (K, cam_from_world, image size).
+    @param out receives the colour image and, if Params::aovs, the AOVs.
+    @param progress if not null, ticked once per finished pixel row of a tile.
+    @return timing and counts. */
+    virtual RenderStats render(const RenderScene& scene, const Camera& camera, RenderImages& out,
+                               Progress* progress = nullptr) const = 0;
+
+    /** @brief The radiance estimate of one path: sample @p index of pixel @p pixel along the
+    ray (o, d) (for tests and tools that trace their own rays). */
+    virtual Vec3f radiance(const RenderScene& scene, const Vec3f& o, const Vec3f& d,
+                           const Point& pixel, uint32_t index) const = 0;
+};
+
+//! @}
+
+}  // namespace vbme
+}  // namespace cv
+
+#endif

@@ -1,0 +1,45 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Factories of the BSDF models behind Bsdf::create (private to vbme_render).
+//
+// Conventions shared by every model (see doc/vbme_render_materials.md):
+// - local shading frame, z = shading normal (outside), wo/wi point away from the surface;
+// - opaque models are two-sided: a wo below the surface (z < 0) is handled by mirroring both
+//   directions to z > 0, so open meshes and back faces reflect like front faces; wi on the
+//   other side of the surface from wo gives f = 0;
+// - eval()/pdf() return 0 for delta lobes; sample() returns weight = f·|cos θi|/pdf.
+#ifndef VBME_RENDER_BSDF_MODELS_HPP
+#define VBME_RENDER_BSDF_MODELS_HPP
+
+#include "opencv2/vbme/render/bsdf.hpp"
+
+namespace cv {
+namespace vbme {
+namespace bsdf_detail {
+
+/** @brief Lambertian: f = albedo/π. */
+Ptr<Bsdf> createLambertian(const Vec3f& albedo);
+/** @brief Normalised Phong: f = kd/π + ks·(n+2)/(2π)·max(0, cos α)^n, α between wi and the
+mirror direction of wo. kd + ks is scaled down per channel to ≤ 1. */
+Ptr<Bsdf> createPhong(const Vec3f& kd, const Vec3f& ks, float exponent);
+/** @brief Cook–Torrance: kd/π + ks·D_Beckmann·G_CT·F_Schlick/(4 cos θo cos θi). */
+Ptr<Bsdf> createCookTorrance(const Vec3f& kd, const Vec3f& ks, float alpha, float ior);
+/** @brief GGX conductor; exact Fresnel from (eta, k) or Schlick from @p colour when
+@p use_colour; a perfect mirror at alpha = 0. */
+Ptr<Bsdf> createConductor(const Vec3f& eta, const Vec3f& k, bool use_colour, const Vec3f& colour,
+                          float alpha);
+/** @brief Smooth (alpha = 0) or rough (GGX, Walter et al. 2007) dielectric. */
+Ptr<Bsdf> createDielectric(float ior, float alpha, const Vec3f& absorption);
+/** @brief Diffuse base under a smooth or rough dielectric coat. */
+Ptr<Bsdf> createPlastic(const Vec3f& albedo, float ior, float alpha);
+
+/** @brief Black surface (emissive materials): f = 0 whatever the texture; sample() fails. */
+Ptr<Bsdf> createBlack();
+
+/** @brief Roughness below which a microfacet model is treated as a perfect specular one. */
+constexpr float kSpecularAlpha = 1e-3f;
+
+}  // namespace bsdf_detail
+}  // namespace vbme
+}  // namespace cv
+
+#endif

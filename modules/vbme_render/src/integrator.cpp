@@ -1,0 +1,418 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Path tracer (NEE + MIS) and reference integrator, TBB over tiles, deterministic sampling.
+#include "opencv2/vbme/render/integrator.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "opencv2/vbme/render/camera.hpp"
+#include "opencv2/vbme/render/sampler.hpp"
+#include "render_scene_impl.hpp"
+#include "sampling.hpp"
+
+namespace cv {
+namespace vbme {
+
+Renderer::~Renderer() = default;
+
+Renderer::Params::Params() = default;
+
+int Renderer::parseLightSelection(const std::string& name) {
+    if (name == "uniform") return LIGHTS_UNIFORM;
+    if (name == "power") return LIGHTS_POWER;
+    CV_Error(Error::StsBadArg,
+             "light_selection: unknown '" + name + "' (expected uniform or power)");
+}
+
+Renderer::Params Renderer::Params::fromScene(const RenderSettings& s) {
+    Params p;
+    p.spp = s.spp;
+    p.max_depth = s.max_depth;
+    p.seed = s.seed;
+    return p;
+}
+
+void Renderer::Params::read(const FileNode& fn) {
+    if (!fn["spp"].empty()) spp = (int)fn["spp"];
+    if (!fn["max_depth"].empty()) max_depth = (int)fn["max_depth"];
+    if (!fn["seed"].empty()) seed = (uint64)(double)fn["seed"];
+    if (!fn["threads"].empty()) threads = (int)fn["threads"];
+    if (!fn["integrator"].empty()) {
+        const std::string s = (std::string)fn["integrator"];
+        if (s == "path")
+            integrator = PATH;
+        else if (s == "reference")
+            integrator = REFERENCE;
+        else
+            CV_Error(Error::StsBadArg,
+                     "integrator: unknown '" + s + "' (expected path or reference)");
+    }
+    if (!fn["with_objects"].empty()) with_objects = (int)fn["with_objects"] != 0;
+    if (!fn["filter"].empty()) filter = parseFilter((std::string)fn["filter"]);
+    if (!fn["clamp"].empty()) clamp = (float)fn["clamp"];
+    if (!fn["rr_depth"].empty()) rr_depth = (int)fn["rr_depth"];
+    if (!fn["tile_size"].empty()) tile_size = (int)fn["tile_size"];
+    if (!fn["aovs"].empty()) aovs = (int)fn["aovs"] != 0;
+    if (!fn["light_selection"].empty())
+        light_selection = parseLightSelection((std::string)fn["light_selection"]);
+}
+
+void Renderer::Params::write(FileStorage& fs) const {
+    fs << "spp" << spp << "max_depth" << max_depth << "seed" << (double)seed << "threads"
+       << threads;
+    fs << "integrator" << (integrator == REFERENCE ? "reference" : "path");
+    fs << "with_objects" << (int)with_objects;
+    fs << "filter" << (filter == FILTER_GAUSSIAN ? "gaussian" : "box");
+    fs << "clamp" << clamp << "rr_depth" << rr_depth << "tile_size" << tile_size << "aovs"
+       << (int)aovs;
+}
+
+namespace {
+
+using render_detail::MaterialRec;
+using render_detail::RenderSceneImpl;
+using sampling::powerHeuristic;
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+inline float maxComp(const Vec3f& v) {
+    return std::max(v[0], std::max(v[1], v[2]));
+}
+inline bool isBlack(const Vec3f& v) {
+    return v[0] == 0.f && v[1] == 0.f && v[2] == 0.f;
+}
+inline Vec3f mul(const Vec3f& a, const Vec3f& b) {
+    return Vec3f(a[0] * b[0], a[1] * b[1], a[2] * b[2]);
+}
+
+/** Discrete distribution over the scene's lights for next-event estimation. */
+struct LightSelector {
+    std::vector<float> pmf, cdf;  // cdf has n + 1 entries
+    int select(float u) const {
+        const int n = (int)pmf.size();
+        int i = int(std::upper_bound(cdf.begin() + 1, cdf.end() - 1, u) - (cdf.begin() + 1));
+        return std::min(std::max(i, 0), n - 1);
+    }
+};
+
+LightSelector makeSelector(const RenderSceneImpl& scene, int mode) {
+    LightSelector s;
+    const auto& em = scene.emitters();
+    const int n = (int)em.size();
+    if (n == 0) return s;
+    s.pmf.assign(n, 1.f / n);
+    if (mode == Renderer::LIGHTS_POWER) {
+        Vec3f lo, hi;
+        scene.bounds(lo, hi);
+        const float radius = std::max(0.5f * float(norm(hi - lo)), 1e-3f);
+        std::vector<double> p(n);
+        double sum = 0;
+        for (int i = 0; i < n; ++i)
+            sum += p[i] = std::max(0.0, (double)em[i]->power(radius));
+        // 90 % by power, 10 % uniform, so that no light is starved.
+        if (sum > 0)
+            for (int i = 0; i < n; ++i)
+                s.pmf[i] = float(0.9 * p[i] / sum + 0.1 / n);
+    }
+    s.cdf.assign(n + 1, 0.f);
+    for (int i = 0; i < n; ++i)
+        s.cdf[i + 1] = s.cdf[i] + s.pmf[i];
+    for (auto& c : s.cdf)
+        c /= s.cdf[n];
+    s.cdf[n] = 1.f;
+    return s;
+}
+
+/** What a path reports besides its radiance. */
+struct PathInfo {
+    Vec3f albedo, normal;
+    bool touched_object = false;  // a vertex on an object, or a shadow ray blocked by one
+    bool sees_object = false;     // the camera ray's first hit is an object
+    int64 rays = 0;
+};
+
+class RendererImpl : public Renderer {
+public:
+    explicit RendererImpl(const Params& p) { setParams(p); }
+    const Params& getParams() const override { return p_; }
+    void setParams(const Params& p) override {
+        if (p.spp <= 0) CV_Error(Error::StsBadArg, "Renderer: spp must be positive");
+        if (p.max_depth <= 0) CV_Error(Error::StsBadArg, "Renderer: max_depth must be positive");
+        if (p.tile_size <= 0) CV_Error(Error::StsBadArg, "Renderer: tile_size must be positive");
+        if (p.light_selection != LIGHTS_UNIFORM && p.light_selection != LIGHTS_POWER)
+            CV_Error(Error::StsBadArg,
+                     "Renderer: light_selection must be LIGHTS_UNIFORM or LIGHTS_POWER");
+        if (p.integrator != PATH && p.integrator != REFERENCE)
+            CV_Error(Error::StsBadArg, "Renderer: integrator must be PATH or REFERENCE");
+        p_ = p;
+    }
+    RenderStats render(const RenderScene& scene, const Camera& camera, RenderImages& out,
+                       Progress* progress) const override;
+    Vec3f radiance(const RenderScene& scene, const Vec3f& o, const Vec3f& d, const Point& pixel,
+                   uint32_t index) const override {
+        PathInfo info;
+        const SobolSampler sampler(p_.seed);
+        const RenderSceneImpl& rs = impl(scene);
+        const LightSelector sel = makeSelector(rs, p_.light_selection);
+        return trace(rs, sel, sampler, o, d, sampler.pixelKey(pixel), index, info);
+    }
+
+private:
+    static const RenderSceneImpl& impl(const RenderScene& s) {
+        const auto* r = dynamic_cast<const RenderSceneImpl*>(&s);
+        CV_Assert(r && "Renderer: the scene must come from RenderScene::create");
+        return *r;
+    }
+    Vec3f trace(const RenderSceneImpl& scene, const LightSelector& lights,
+                const SobolSampler& sampler, Vec3f o, Vec3f d, uint64 px, uint32_t index,
+                PathInfo& info) const;
+    Params p_;
+};
+
+Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lights,
+                          const SobolSampler& sampler, Vec3f o, Vec3f d, uint64 px, uint32_t index,
+                          PathInfo& info) const {
+    const bool nee = p_.integrator == PATH;
+    const bool with_objects = p_.with_objects;
+    // Object interactions through shadow rays are only tracked where they can happen and are
+    // reported (the AOVs of a render with objects).
+    const bool track_objects = p_.aovs && with_objects && scene.hasObjects();
+    const auto& emitters = scene.emitters();
+    const int n_lights = (int)emitters.size();
+
+    Vec3f L(0, 0, 0), beta(1, 1, 1);
+    float prev_pdf = 0.f;
+    bool prev_delta = true;  // the camera ray counts as specular: no MIS on what it sees
+    Vec3f prev_p = o;
+    SurfaceHit hit;
+
+    for (int depth = 0;; ++depth) {
+        ++info.rays;
+        if (!scene.intersect(o, d, 0.f, kInf, hit, with_objects)) {
+            for (int li : scene.infiniteEmitters()) {
+                const Emitter& e = *emitters[li];
+                const Vec3f Le = e.radianceEscaped(d);
+                if (isBlack(Le)) continue;
+                float w = 1.f;
+                if (nee && !prev_delta)
+                    w = powerHeuristic(1, prev_pdf, 1, lights.pmf[li] * e.pdfEscaped(d));
+                L += mul(beta, Le) * w;
+            }
+            break;
+        }
+        if (hit.kind == GeometryKind::OBJECT) {
+            info.touched_object = true;
+            if (depth == 0) info.sees_object = true;
+        }
+        const MaterialRec& m = scene.material(hit.geom_id, hit.prim_id);
+        const Vec3f diffuse = m.diffuseAt(hit.uv);
+        if (depth == 0) {
+            info.albedo = diffuse;
+            info.normal = hit.ns;
+        }
+        const float cos_out = d.dot(hit.ng);  // > 0: the ray leaves the mesh through this face
+        if (m.transmission && cos_out > 0.f && !isBlack(m.absorption)) {
+            for (int c = 0; c < 3; ++c)
+                beta[c] *= std::exp(-m.absorption[c] * hit.t);
+        }
+        // Emission.
+        if (hit.kind == GeometryKind::LIGHT) {
+            const int li = scene.lightOf(hit.geom_id);
+            const Emitter& e = *emitters[li];
+            const Vec3f Le = e.radianceHit(d);
+            if (!isBlack(Le)) {
+                float w = 1.f;
+                if (nee && !prev_delta)
+                    w = powerHeuristic(1, prev_pdf, 1, lights.pmf[li] * e.pdfHit(prev_p, d, hit.t));
+                L += mul(beta, Le) * w;
+            }
+        }
+        if (m.emissive) L += mul(beta, m.emissionAt(hit.uv));
+        if (depth >= p_.max_depth) break;
+
+        const float eps = RenderSceneImpl::epsilon(hit.p);
+        const sampling::Frame frame(hit.ns);
+        const Vec3f wo = frame.toLocal(-d);
+        const Bsdf& bsdf = *m.bsdf;
+
+        // Next-event estimation: one light, chosen uniformly.
+        // Light choice and BSDF lobe share one stratified pair (dimensions 4 and 5 of the vertex).
+        static_assert(
+            PathDims::kBsdfLobe == PathDims::kLightSelect + 1 && PathDims::kLightSelect % 2 == 0,
+            "light choice and lobe form one pair");
+        const Vec2f u_sel_lobe =
+            sampler.get2D(px, index, PathDims::dim(depth, PathDims::kLightSelect));
+        if (nee && n_lights > 0 && !m.is_delta) {
+            const float ul = u_sel_lobe[0];
+            const int li = lights.select(ul);
+            const Vec2f u = sampler.get2D(px, index, PathDims::dim(depth, PathDims::kLightPos));
+            EmitterSample es;
+            if (emitters[li]->sample(hit.p, u, es) && es.pdf > 0.f && !isBlack(es.L)) {
+                const Vec3f wi = frame.toLocal(es.wi);
+                const Vec3f f = bsdf.eval(wo, wi, diffuse);
+                if (!isBlack(f)) {
+                    const float side = es.wi.dot(hit.ng) > 0.f ? 1.f : -1.f;
+                    const Vec3f so = hit.p + hit.ng * (side * eps);
+                    const float tfar = std::isinf(es.dist) ? kInf : es.dist * (1.f - 1e-4f) - eps;
+                    ++info.rays;
+                    bool blocked;
+                    if (track_objects) {
+                        // closest hit instead of any hit, to tell whether an object blocks
+                        SurfaceHit sh;
+                        blocked = tfar > 0.f && scene.intersect(so, es.wi, 0.f, tfar, sh, true);
+                        if (blocked && sh.kind == GeometryKind::OBJECT) info.touched_object = true;
+                    } else {
+                        blocked = tfar > 0.f && scene.occluded(so, es.wi, 0.f, tfar, with_objects);
+                    }
+                    if (tfar > 0.f && !blocked) {
+                        const float light_pdf = lights.pmf[li] * es.pdf;
+                        const float w =
+                            es.delta ? 1.f
+                                     : powerHeuristic(1, light_pdf, 1, bsdf.pdf(wo, wi, diffuse));
+                        L += mul(beta, mul(f, es.L)) * (std::abs(wi[2]) * w / light_pdf);
+                    }
+                }
+            }
+        }
+
+        // BSDF sampling.
+        const float ulobe = u_sel_lobe[1];
+        const Vec2f ud = sampler.get2D(px, index, PathDims::dim(depth, PathDims::kBsdfDir));
+        BsdfSample bs;
+        if (!bsdf.sample(wo, ud, ulobe, diffuse, bs)) break;
+        if (isBlack(bs.weight) || !(bs.pdf > 0.f)) break;
+        beta = mul(beta, bs.weight);
+        Vec3f wi = frame.toWorld(bs.wi);
+        wi *= 1.f / std::sqrt(wi.dot(wi));
+        prev_pdf = bs.pdf;
+        prev_delta = bs.delta;
+        prev_p = hit.p;
+        const float side = wi.dot(hit.ng) > 0.f ? 1.f : -1.f;
+        o = hit.p + hit.ng * (side * eps);
+        d = wi;
+
+        if (depth + 1 >= p_.rr_depth) {
+            const float q = std::max(0.05f, 1.f - maxComp(beta));
+            const float ur = sampler.get1D(px, index, PathDims::dim(depth, PathDims::kRoulette));
+            if (ur < q) break;
+            beta *= 1.f / (1.f - q);
+        }
+    }
+    if (!(std::isfinite(L[0]) && std::isfinite(L[1]) && std::isfinite(L[2]))) return Vec3f(0, 0, 0);
+    return L;
+}
+
+RenderStats RendererImpl::render(const RenderScene& scene_in, const Camera& camera,
+                                 RenderImages& out, Progress* progress) const {
+    const auto t0 = std::chrono::steady_clock::now();
+    const RenderSceneImpl& scene = impl(scene_in);
+    const PinholeCamera cam(camera);
+    const Size sz = camera.image_size;
+    const SobolSampler sampler(p_.seed);
+    const LightSelector lights = makeSelector(scene, p_.light_selection);
+    const int ts = p_.tile_size;
+    const int tiles_x = (sz.width + ts - 1) / ts, tiles_y = (sz.height + ts - 1) / ts;
+
+    out.color.create(sz, CV_32FC3);
+    if (p_.aovs) {
+        out.albedo.create(sz, CV_32FC3);
+        out.normal.create(sz, CV_32FC3);
+        out.object.create(sz, CV_32FC1);
+        out.mask.create(sz, CV_32FC1);
+    } else {
+        out.albedo.release();
+        out.normal.release();
+        out.object.release();
+        out.mask.release();
+    }
+    std::atomic<int64> rays{0};
+    const uint32_t spp = (uint32_t)p_.spp;
+    const double inv_spp = 1.0 / spp;
+
+    auto renderTile = [&](int tile) {
+        const int x0 = (tile % tiles_x) * ts, y0 = (tile / tiles_x) * ts;
+        const int x1 = std::min(x0 + ts, sz.width), y1 = std::min(y0 + ts, sz.height);
+        int64 tile_rays = 0;
+        for (int y = y0; y < y1; ++y) {
+            for (int x = x0; x < x1; ++x) {
+                const uint64 px = sampler.pixelKey(Point(x, y));
+                double c[3] = {0, 0, 0}, a[3] = {0, 0, 0}, n[3] = {0, 0, 0}, obj = 0, msk = 0;
+                for (uint32_t s = 0; s < spp; ++s) {
+                    const Vec2f off =
+                        filterOffset(p_.filter, sampler.get2D(px, s, PathDims::kFilm));
+                    Vec3f o, d;
+                    cam.generateRay(Point2f(x + off[0], y + off[1]), o, d);
+                    PathInfo info;
+                    Vec3f L = trace(scene, lights, sampler, o, d, px, s, info);
+                    if (p_.clamp > 0.f) {
+                        const float mc = maxComp(L);
+                        if (mc > p_.clamp) L *= p_.clamp / mc;
+                    }
+                    for (int k = 0; k < 3; ++k) {
+                        c[k] += L[k];
+                        a[k] += info.albedo[k];
+                        n[k] += info.normal[k];
+                    }
+                    obj += info.touched_object ? 1.0 : 0.0;
+                    msk += info.sees_object ? 1.0 : 0.0;
+                    tile_rays += info.rays;
+                }
+                out.color.at<Vec3f>(y, x) =
+                    Vec3f(float(c[2] * inv_spp), float(c[1] * inv_spp), float(c[0] * inv_spp));
+                if (p_.aovs) {
+                    out.albedo.at<Vec3f>(y, x) =
+                        Vec3f(float(a[2] * inv_spp), float(a[1] * inv_spp), float(a[0] * inv_spp));
+                    const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+                    out.normal.at<Vec3f>(y, x) =
+                        l > 0 ? Vec3f(float(n[0] / l), float(n[1] / l), float(n[2] / l))
+                              : Vec3f(0, 0, 0);
+                    out.object.at<float>(y, x) = float(obj * inv_spp);
+                    out.mask.at<float>(y, x) = float(msk * inv_spp);
+                }
+            }
+            if (progress) progress->tick(x1 - x0);
+        }
+        rays += tile_rays;
+    };
+
+    const int n_tiles = tiles_x * tiles_y;
+    auto body = [&] {
+        tbb::parallel_for(tbb::blocked_range<int>(0, n_tiles, 1),
+                          [&](const tbb::blocked_range<int>& r) {
+                              for (int t = r.begin(); t != r.end(); ++t)
+                                  renderTile(t);
+                          });
+    };
+    if (p_.threads > 0) {
+        // Allow more workers than cores when asked (TBB's default cap is the core count).
+        tbb::global_control gc(tbb::global_control::max_allowed_parallelism, (size_t)p_.threads);
+        tbb::task_arena arena(p_.threads);
+        arena.execute(body);
+    } else {
+        tbb::task_arena arena;
+        arena.execute(body);
+    }
+
+    RenderStats st;
+    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    st.paths = int64(sz.area()) * spp;
+    st.rays = rays.load();
+    return st;
+}
+
+}  // namespace
+
+Ptr<Renderer> Renderer::create(const Params& params) {
+    return makePtr<RendererImpl>(params);
+}
+
+}  // namespace vbme
+}  // namespace cv

@@ -1,0 +1,468 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Scene → Embree: room box, meshes (assimp), polygon-light geometry, materials, lights.
+#include "render_scene_impl.hpp"
+
+#include <assimp/material.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <assimp/Importer.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <map>
+
+#include "opencv2/vbme/core/fileio.hpp"
+
+namespace cv {
+namespace vbme {
+
+RenderScene::~RenderScene() = default;
+
+RenderScene::Params::Params() = default;
+
+void RenderScene::Params::read(const FileNode& fn) {
+    if (!fn["room_albedo"].empty()) room_albedo = Vec3f(readVec3(fn["room_albedo"], "room_albedo"));
+    if (!fn["room_emissive"].empty()) room_emissive = (int)fn["room_emissive"] != 0;
+}
+
+void RenderScene::Params::write(FileStorage& fs) const {
+    writeVec3(fs, "room_albedo", Vec3d(room_albedo));
+    fs << "room_emissive" << (int)room_emissive;
+}
+
+Ptr<RenderScene> RenderScene::create(const Scene& scene, const Params& params) {
+    return makePtr<render_detail::RenderSceneImpl>(scene, params);
+}
+
+namespace render_detail {
+
+MaterialRec makeMaterial(const Material& m) {
+    MaterialRec r;
+    if (m.type == Material::EMISSIVE) {
+        Material black;
+        black.type = Material::LAMBERTIAN;
+        black.albedo = Vec3d(0, 0, 0);
+        r.bsdf = Bsdf::create(black);
+        r.emissive = true;
+        r.emission = Vec3f(m.radiance);
+    } else {
+        r.bsdf = Bsdf::create(m);
+    }
+    r.diffuse = r.bsdf->defaultDiffuse();
+    return r;
+}
+
+int RenderSceneImpl::addMaterial(MaterialRec m) {
+    m.is_delta = m.bsdf->isDelta();
+    m.transmission = m.bsdf->hasTransmission();
+    m.absorption = m.bsdf->absorption();
+    materials_.push_back(std::move(m));
+    return (int)materials_.size() - 1;
+}
+
+RenderSceneImpl::RenderSceneImpl(const Scene& scene, const Params& params)
+    : scene_(scene), params_(params) {
+    if (scene_.has_room) addRoom();
+    for (size_t i = 0; i < scene_.proxies.size(); ++i)
+        addMesh(scene_.proxies[i], GeometryKind::PROXY, (int)i,
+                "proxies[" + std::to_string(i) + "]");
+    for (size_t i = 0; i < scene_.objects.size(); ++i)
+        addMesh(scene_.objects[i], GeometryKind::OBJECT, (int)i,
+                "objects[" + std::to_string(i) + "]");
+
+    for (size_t i = 0; i < scene_.lights.size(); ++i)
+        addLight(scene_.lights[i], (int)i);
+
+    // Bounds of the finite geometry.
+    const float inf = std::numeric_limits<float>::infinity();
+    lo_ = Vec3f(inf, inf, inf);
+    hi_ = Vec3f(-inf, -inf, -inf);
+    for (const auto& g : geoms_)
+        for (size_t v = 0; v < g.numVertices(); ++v)
+            for (int a = 0; a < 3; ++a) {
+                lo_[a] = std::min(lo_[a], g.pos[3 * v + a]);
+                hi_[a] = std::max(hi_[a], g.pos[3 * v + a]);
+            }
+    if (!(lo_[0] <= hi_[0])) {
+        lo_ = Vec3f(0, 0, 0);
+        hi_ = Vec3f(0, 0, 0);
+    }
+
+    for (const auto& g : geoms_)
+        has_objects_ = has_objects_ || g.kind == GeometryKind::OBJECT;
+
+    device_ = rtcNewDevice(nullptr);
+    if (!device_) CV_Error(Error::StsError, "Embree: cannot create a device");
+    full_ = buildScene(true);
+}
+
+RenderSceneImpl::~RenderSceneImpl() {
+    if (full_) rtcReleaseScene(full_);
+    if (no_objects_) rtcReleaseScene(no_objects_);
+    if (device_) rtcReleaseDevice(device_);
+}
+
+size_t RenderSceneImpl::numTriangles() const {
+    size_t n = 0;
+    for (const auto& g : geoms_)
+        n += g.numTriangles();
+    return n;
+}
+
+void RenderSceneImpl::addRoom() {
+    const Room& room = scene_.room;
+    const Vec3f lo(room.min), hi(room.max);
+    const Vec3f ex(hi[0] - lo[0], 0, 0), ey(0, hi[1] - lo[1], 0), ez(0, 0, hi[2] - lo[2]);
+    struct Face {
+        const char* name;
+        Vec3f bl, right, up;
+    };
+    // Bottom-left corner, image-right and image-up vectors of each face as seen from inside
+    // (right × up points into the room).
+    const Face faces[6] = {
+        {"floor", lo, ex, ey},
+        {"ceiling", Vec3f(lo[0], hi[1], hi[2]), ex, -ey},
+        {"left", lo, ey, ez},
+        {"right", Vec3f(hi[0], hi[1], lo[2]), -ey, ez},
+        {"front", Vec3f(hi[0], lo[1], lo[2]), -ex, ez},
+        {"back", Vec3f(lo[0], hi[1], lo[2]), ex, ez},
+    };
+    GeometryRec g;
+    g.kind = GeometryKind::ROOM;
+    g.source = 0;
+    for (int f = 0; f < 6; ++f) {
+        const Face& F = faces[f];
+        const Vec3f c[4] = {F.bl, F.bl + F.right, F.bl + F.right + F.up, F.bl + F.up};
+        const Vec2f uv[4] = {Vec2f(0, 0), Vec2f(1, 0), Vec2f(1, 1), Vec2f(0, 1)};
+        const uint32_t base = (uint32_t)g.uv.size();
+        const Vec3f n = normalize(F.right.cross(F.up));
+        for (int k = 0; k < 4; ++k) {
+            g.pos.insert(g.pos.end(), {c[k][0], c[k][1], c[k][2]});
+            g.uv.push_back(uv[k]);
+            g.nrm.push_back(n);
+        }
+        g.idx.insert(g.idx.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+
+        MaterialRec m;
+        Ptr<Texture> tex;
+        auto it = room.textures.find(F.name);
+        if (it != room.textures.end())
+            tex = Texture::load(it->second, scene_.camera.response, Texture::WRAP_CLAMP,
+                                std::string("room.textures.") + F.name);
+        Material lam;
+        lam.type = Material::LAMBERTIAN;
+        if (params_.room_emissive) {
+            lam.albedo = Vec3d(0, 0, 0);
+            m = makeMaterial(lam);
+            m.emissive = true;
+            m.emission = tex ? tex->mean() : params_.room_albedo;
+            m.emission_tex = tex;
+        } else {
+            lam.albedo = Vec3d(params_.room_albedo);
+            m = makeMaterial(lam);
+            m.texture = tex;
+        }
+        const int mi = addMaterial(m);
+        g.prim_material.push_back(mi);
+        g.prim_material.push_back(mi);
+    }
+    g.pos.push_back(0.f);  // Embree reads vertices with 16-byte loads
+    geoms_.push_back(std::move(g));
+}
+
+namespace {
+
+Vec3f aiColor(const aiMaterial* m, const char* key, unsigned type, unsigned idx, const Vec3f& def,
+              bool* found = nullptr) {
+    aiColor3D c;
+    if (m->Get(key, type, idx, c) == AI_SUCCESS) {
+        if (found) *found = true;
+        return Vec3f(c.r, c.g, c.b);
+    }
+    if (found) *found = false;
+    return def;
+}
+float aiFloat(const aiMaterial* m, const char* key, unsigned type, unsigned idx, float def) {
+    float v;
+    return m->Get(key, type, idx, v) == AI_SUCCESS ? v : def;
+}
+float maxComp(const Vec3f& v) {
+    return std::max(v[0], std::max(v[1], v[2]));
+}
+
+}  // namespace
+
+void RenderSceneImpl::addMesh(const SceneObject& o, GeometryKind kind, int index,
+                              const std::string& field) {
+    if (!std::filesystem::exists(o.mesh))
+        CV_Error(Error::StsObjectNotFound, field + ".mesh: file '" + o.mesh + "' does not exist");
+    Assimp::Importer importer;
+    importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,
+                                aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+    const aiScene* sc =
+        importer.ReadFile(o.mesh, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                      aiProcess_PreTransformVertices | aiProcess_SortByPType);
+    if (!sc || !sc->mRootNode)
+        CV_Error(Error::StsParseError,
+                 field + ".mesh: cannot load '" + o.mesh + "': " + importer.GetErrorString());
+
+    const Matx44d& W = o.world_from_object;
+    Matx33d A;
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+            A(r, c) = W(r, c);
+    const double det = determinant(A);
+    if (!(std::abs(det) > 1e-12) || !std::isfinite(det))
+        CV_Error(Error::StsBadArg, field + ".world_from_object: not invertible");
+    if (std::abs(W(3, 0)) + std::abs(W(3, 1)) + std::abs(W(3, 2)) > 1e-9 ||
+        std::abs(W(3, 3) - 1) > 1e-9)
+        CV_Error(Error::StsBadArg, field + ".world_from_object: last row must be [0 0 0 1]");
+    const Matx33d Ninv = A.inv().t();
+    const bool flip = det < 0;
+    const std::string folder = parentFolder(o.mesh);
+
+    // Materials of the file (or the scene's override), made once.
+    std::vector<int> mat_of(sc->mNumMaterials, -1);
+    int override_mat = -1;
+    if (o.has_material) override_mat = addMaterial(makeMaterial(o.material));
+    std::map<std::string, Ptr<Texture>> textures;
+    auto fileMaterial = [&](unsigned mi) -> int {
+        if (mat_of[mi] >= 0) return mat_of[mi];
+        const aiMaterial* am = sc->mMaterials[mi];
+        const Vec3f kd = aiColor(am, AI_MATKEY_COLOR_DIFFUSE, Vec3f(0.6f, 0.6f, 0.6f));
+        const Vec3f ks = aiColor(am, AI_MATKEY_COLOR_SPECULAR, Vec3f(0, 0, 0));
+        const Vec3f ke = aiColor(am, AI_MATKEY_COLOR_EMISSIVE, Vec3f(0, 0, 0));
+        bool has_tf = false;
+        const Vec3f tf = aiColor(am, AI_MATKEY_COLOR_TRANSPARENT, Vec3f(1, 1, 1), &has_tf);
+        const float ns = aiFloat(am, AI_MATKEY_SHININESS, 0.f);
+        const float ni = aiFloat(am, AI_MATKEY_REFRACTI, 1.f);
+        const float d = aiFloat(am, AI_MATKEY_OPACITY, 1.f);
+        Material m;
+        if (d < 1.f) {
+            m.type = Material::DIELECTRIC;
+            m.ior = ni > 1.f ? ni : 1.5;
+            m.roughness = 0;
+            Vec3f t = tf;
+            if (maxComp(t) <= 0.f) t = Vec3f(1, 1, 1);
+            for (int c = 0; c < 3; ++c)
+                m.absorption[c] = -std::log(std::min(std::max(t[c], 1e-4f), 1.f));
+        } else if (maxComp(ks) > 0.f && ns > 0.f) {
+            m.type = Material::PHONG;
+            m.kd = Vec3d(kd);
+            m.ks = Vec3d(ks);
+            m.exponent = ns;
+        } else {
+            m.type = Material::LAMBERTIAN;
+            m.albedo = Vec3d(kd);
+        }
+        MaterialRec rec = makeMaterial(m);
+        if (maxComp(ke) > 0.f) {
+            rec.emissive = true;
+            rec.emission = ke;
+        }
+        aiString tex_path;
+        if (m.type != Material::DIELECTRIC &&
+            am->GetTexture(aiTextureType_DIFFUSE, 0, &tex_path) == AI_SUCCESS &&
+            tex_path.length > 0 && tex_path.C_Str()[0] != '*') {
+            const std::string p = resolvePath(folder, tex_path.C_Str());
+            auto it = textures.find(p);
+            if (it == textures.end())
+                it = textures
+                         .emplace(p, Texture::load(p, Response::SRGB, Texture::WRAP_REPEAT,
+                                                   field + ".mesh (map_Kd)"))
+                         .first;
+            rec.texture = it->second;
+        }
+        return mat_of[mi] = addMaterial(rec);
+    };
+
+    size_t tris = 0;
+    for (unsigned k = 0; k < sc->mNumMeshes; ++k) {
+        const aiMesh* am = sc->mMeshes[k];
+        if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) || am->mNumFaces == 0) continue;
+        GeometryRec g;
+        g.kind = kind;
+        g.source = index;
+        g.material = override_mat >= 0 ? override_mat : fileMaterial(am->mMaterialIndex);
+        g.pos.reserve(3 * am->mNumVertices + 1);
+        for (unsigned v = 0; v < am->mNumVertices; ++v) {
+            const aiVector3D& p = am->mVertices[v];
+            const Vec3d w = A * Vec3d(p.x, p.y, p.z) + Vec3d(W(0, 3), W(1, 3), W(2, 3));
+            g.pos.insert(g.pos.end(), {float(w[0]), float(w[1]), float(w[2])});
+        }
+        g.pos.push_back(0.f);
+        if (am->HasNormals()) {
+            g.nrm.resize(am->mNumVertices);
+            for (unsigned v = 0; v < am->mNumVertices; ++v) {
+                const aiVector3D& n = am->mNormals[v];
+                Vec3d w = Ninv * Vec3d(n.x, n.y, n.z);
+                const double l = norm(w);
+                g.nrm[v] = l > 0 ? Vec3f(w / l) : Vec3f(0, 0, 0);
+            }
+        }
+        if (am->HasTextureCoords(0)) {
+            g.uv.resize(am->mNumVertices);
+            for (unsigned v = 0; v < am->mNumVertices; ++v)
+                g.uv[v] = Vec2f(am->mTextureCoords[0][v].x, am->mTextureCoords[0][v].y);
+        }
+        g.idx.reserve(3 * am->mNumFaces);
+        for (unsigned f = 0; f < am->mNumFaces; ++f) {
+            const aiFace& face = am->mFaces[f];
+            if (face.mNumIndices != 3) continue;
+            const Vec3f a = g.vertex(face.mIndices[0]), b = g.vertex(face.mIndices[1]),
+                        c = g.vertex(face.mIndices[2]);
+            if (norm((b - a).cross(c - a)) == 0.f) continue;  // degenerate: no normal
+            if (flip)
+                g.idx.insert(g.idx.end(), {face.mIndices[0], face.mIndices[2], face.mIndices[1]});
+            else
+                g.idx.insert(g.idx.end(), {face.mIndices[0], face.mIndices[1], face.mIndices[2]});
+        }
+        if (g.idx.empty()) continue;
+        tris += g.numTriangles();
+        geoms_.push_back(std::move(g));
+    }
+    if (tris == 0) CV_Error(Error::StsBadArg, field + ".mesh: '" + o.mesh + "' has no triangles");
+}
+
+void RenderSceneImpl::addLight(const Light& light, int index) {
+    const std::string field = "lights[" + std::to_string(index) + "]";
+    Light l = light;
+    if (l.type == Light::POLYGON) {
+        // Lift the light off the wall it may lie on by twice the ray offset there.
+        const Vec3d n = l.polygonNormal();
+        for (auto& c : l.corners)
+            c += n * double(2.f * epsilon(Vec3f(c)));
+    }
+    const int ei = (int)emitters_.size();
+    emitters_.push_back(Emitter::create(l, field));
+    if (emitters_.back()->isInfinite()) infinite_.push_back(ei);
+    if (l.type != Light::POLYGON) return;
+
+    GeometryRec g;
+    g.kind = GeometryKind::LIGHT;
+    g.source = index;
+    g.light = ei;
+    for (const auto& c : l.corners)
+        g.pos.insert(g.pos.end(), {float(c[0]), float(c[1]), float(c[2])});
+    g.pos.push_back(0.f);
+    for (uint32_t i = 1; i + 1 < l.corners.size(); ++i) {
+        const Vec3f a = g.vertex(0), b = g.vertex(i), c = g.vertex(i + 1);
+        if (norm((b - a).cross(c - a)) == 0.f) continue;
+        g.idx.insert(g.idx.end(), {0u, i, i + 1});
+    }
+    Material black;
+    black.type = Material::LAMBERTIAN;
+    black.albedo = Vec3d(0, 0, 0);
+    g.material = addMaterial(makeMaterial(black));
+    if (!g.idx.empty()) geoms_.push_back(std::move(g));
+}
+
+RTCScene RenderSceneImpl::buildScene(bool with_objects) const {
+    RTCScene s = rtcNewScene(device_);
+    rtcSetSceneBuildQuality(s, RTC_BUILD_QUALITY_HIGH);
+    rtcSetSceneFlags(s, RTC_SCENE_FLAG_ROBUST);  // watertight: no leaks through the room's edges
+    for (size_t i = 0; i < geoms_.size(); ++i) {
+        const GeometryRec& g = geoms_[i];
+        if (!with_objects && g.kind == GeometryKind::OBJECT) continue;
+        RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+        rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, g.pos.data(),
+                                   0, 3 * sizeof(float), g.numVertices());
+        rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, g.idx.data(),
+                                   0, 3 * sizeof(uint32_t), g.numTriangles());
+        rtcSetGeometryBuildQuality(geom, RTC_BUILD_QUALITY_HIGH);
+        rtcCommitGeometry(geom);
+        rtcAttachGeometryByID(s, geom, (unsigned)i);
+        rtcReleaseGeometry(geom);
+    }
+    rtcCommitScene(s);
+    const RTCError err = rtcGetDeviceError(device_);
+    if (err != RTC_ERROR_NONE) {
+        rtcReleaseScene(s);
+        CV_Error(Error::StsError, format("Embree: scene build failed (error %d)", (int)err));
+    }
+    return s;
+}
+
+RTCScene RenderSceneImpl::sceneFor(bool with_objects) const {
+    if (with_objects) return full_;
+    std::call_once(no_objects_once_, [this] { no_objects_ = buildScene(false); });
+    return no_objects_;
+}
+
+bool RenderSceneImpl::intersect(const Vec3f& o, const Vec3f& d, float tnear, float tfar,
+                                SurfaceHit& hit, bool with_objects) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh;
+    rh.ray.org_x = o[0];
+    rh.ray.org_y = o[1];
+    rh.ray.org_z = o[2];
+    rh.ray.dir_x = d[0];
+    rh.ray.dir_y = d[1];
+    rh.ray.dir_z = d[2];
+    rh.ray.tnear = tnear;
+    rh.ray.tfar = tfar;
+    rh.ray.time = 0.f;
+    rh.ray.mask = 0xffffffffu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(sceneFor(with_objects), &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+
+    const GeometryRec& g = geoms_[rh.hit.geomID];
+    const uint32_t* tri = &g.idx[3 * size_t(rh.hit.primID)];
+    const float b1 = rh.hit.u, b2 = rh.hit.v, b0 = 1.f - b1 - b2;
+    const Vec3f v0 = g.vertex(tri[0]), v1 = g.vertex(tri[1]), v2 = g.vertex(tri[2]);
+    hit.t = rh.ray.tfar;
+    hit.p = v0 * b0 + v1 * b1 + v2 * b2;
+    Vec3f ng = (v1 - v0).cross(v2 - v0);
+    ng *= 1.f / std::sqrt(ng.dot(ng));
+    hit.ng = ng;
+    if (!g.nrm.empty()) {
+        Vec3f ns = g.nrm[tri[0]] * b0 + g.nrm[tri[1]] * b1 + g.nrm[tri[2]] * b2;
+        const float l2 = ns.dot(ns);
+        if (l2 > 1e-12f) {
+            ns *= 1.f / std::sqrt(l2);
+            if (ns.dot(ng) < 0.f) ns = -ns;
+            hit.ns = ns;
+        } else {
+            hit.ns = ng;
+        }
+    } else {
+        hit.ns = ng;
+    }
+    hit.uv =
+        g.uv.empty() ? Vec2f(b1, b2) : g.uv[tri[0]] * b0 + g.uv[tri[1]] * b1 + g.uv[tri[2]] * b2;
+    hit.geom_id = (int)rh.hit.geomID;
+    hit.prim_id = (int)rh.hit.primID;
+    hit.kind = g.kind;
+    return true;
+}
+
+bool RenderSceneImpl::occluded(const Vec3f& o, const Vec3f& d, float tnear, float tfar,
+                               bool with_objects) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRay r;
+    r.org_x = o[0];
+    r.org_y = o[1];
+    r.org_z = o[2];
+    r.dir_x = d[0];
+    r.dir_y = d[1];
+    r.dir_z = d[2];
+    r.tnear = tnear;
+    r.tfar = tfar;
+    r.time = 0.f;
+    r.mask = 0xffffffffu;
+    r.id = 0;
+    r.flags = 0;
+    rtcOccluded1(sceneFor(with_objects), &ctx, &r);
+    return r.tfar < 0.f;  // Embree sets tfar to −inf on a hit
+}
+
+}  // namespace render_detail
+}  // namespace vbme
+}  // namespace cv

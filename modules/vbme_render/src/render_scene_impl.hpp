@@ -1,0 +1,122 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Internals of RenderScene shared with the integrators (private to vbme_render).
+#ifndef VBME_RENDER_SCENE_IMPL_HPP
+#define VBME_RENDER_SCENE_IMPL_HPP
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <vector>
+
+#include "opencv2/vbme/render/bsdf.hpp"
+#include "opencv2/vbme/render/scene.hpp"
+#include "opencv2/vbme/render/texture.hpp"
+
+namespace cv {
+namespace vbme {
+namespace render_detail {
+
+/** A surface's appearance: BSDF, optional diffuse texture, optional emission. */
+struct MaterialRec {
+    Ptr<Bsdf> bsdf;
+    Ptr<Texture> texture;       // diffuse colour; null: bsdf->defaultDiffuse()
+    Ptr<Texture> emission_tex;  // emitted radiance texture (emissive room); null: `emission`
+    Vec3f diffuse;              // constant diffuse colour
+    Vec3f emission;             // constant emitted radiance (both sides)
+    bool emissive = false;
+    bool is_delta = false;
+    bool transmission = false;
+    Vec3f absorption;
+
+    Vec3f diffuseAt(const Vec2f& uv) const { return texture ? texture->eval(uv) : diffuse; }
+    Vec3f emissionAt(const Vec2f& uv) const {
+        return emission_tex ? emission_tex->eval(uv) : emission;
+    }
+};
+
+/** One Embree triangle geometry with its attributes (world space). */
+struct GeometryRec {
+    GeometryKind kind = GeometryKind::ROOM;
+    int source = 0;
+    std::vector<float> pos;          // xyz per vertex, +1 float of padding for Embree
+    std::vector<Vec3f> nrm;          // per vertex (optional)
+    std::vector<Vec2f> uv;           // per vertex (optional)
+    std::vector<uint32_t> idx;       // 3 per triangle
+    std::vector<int> prim_material;  // per triangle (optional)
+    int material = -1;               // when prim_material is empty
+    int light = -1;                  // emitter index (LIGHT)
+    size_t numVertices() const { return pos.size() / 3; }
+    size_t numTriangles() const { return idx.size() / 3; }
+    Vec3f vertex(uint32_t i) const { return Vec3f(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]); }
+};
+
+class RenderSceneImpl : public RenderScene {
+public:
+    RenderSceneImpl(const Scene& scene, const Params& params);
+    ~RenderSceneImpl() override;
+
+    const Scene& scene() const override { return scene_; }
+    int numGeometries() const override { return (int)geoms_.size(); }
+    GeometryKind geometryKind(int g) const override { return geoms_.at(g).kind; }
+    int geometrySource(int g) const override { return geoms_.at(g).source; }
+    size_t numTriangles() const override;
+    const std::vector<Ptr<Emitter>>& emitters() const override { return emitters_; }
+    void bounds(Vec3f& lo, Vec3f& hi) const override {
+        lo = lo_;
+        hi = hi_;
+    }
+    bool intersect(const Vec3f& o, const Vec3f& d, float tnear, float tfar, SurfaceHit& hit,
+                   bool with_objects = true) const override;
+    bool occluded(const Vec3f& o, const Vec3f& d, float tnear, float tfar,
+                  bool with_objects = true) const override;
+
+    const GeometryRec& geometry(int g) const { return geoms_[g]; }
+    const MaterialRec& material(int g, int prim) const {
+        const GeometryRec& r = geoms_[g];
+        return materials_[r.prim_material.empty() ? r.material : r.prim_material[prim]];
+    }
+    /** Ray-offset distance at point @p p: safely above float rounding there (10⁻⁵ of the
+    largest coordinate, at least 10 µm). Depends on the point only, not on the scene content,
+    so renders with and without objects offset identically. */
+    static float epsilon(const Vec3f& p) {
+        const float m = std::max(std::abs(p[0]), std::max(std::abs(p[1]), std::abs(p[2])));
+        return 1e-5f * std::max(m, 1.f);
+    }
+    /** Index of the emitter of a LIGHT geometry. */
+    int lightOf(int g) const { return geoms_[g].light; }
+    /** Whether any `objects:` geometry exists. */
+    bool hasObjects() const { return has_objects_; }
+    /** Emitters at infinity (indices into emitters()). */
+    const std::vector<int>& infiniteEmitters() const { return infinite_; }
+
+private:
+    void addRoom();
+    void addMesh(const SceneObject& o, GeometryKind kind, int index, const std::string& field);
+    void addLight(const Light& l, int index);
+    int addMaterial(MaterialRec m);
+    RTCScene sceneFor(bool with_objects) const;
+    RTCScene buildScene(bool with_objects) const;
+
+    Scene scene_;
+    Params params_;
+    std::vector<GeometryRec> geoms_;
+    std::vector<MaterialRec> materials_;
+    std::vector<Ptr<Emitter>> emitters_;
+    std::vector<int> infinite_;
+    Vec3f lo_, hi_;
+    RTCDevice device_ = nullptr;
+    mutable RTCScene full_ = nullptr;
+    mutable RTCScene no_objects_ = nullptr;
+    mutable std::once_flag no_objects_once_;
+    bool has_objects_ = false;
+};
+
+MaterialRec makeMaterial(const Material& m);
+
+}  // namespace render_detail
+}  // namespace vbme
+}  // namespace cv
+
+#endif
