@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
         s0.room.max = Vec3d(2, 4, 2.6);
         Camera first = Camera::fromFocal(260, s0.image_size);
         Mat tilt;
-        Rodrigues(Vec3d(-0.25, 0, 0), tilt);  // level, looking a little down at the back wall
+        Rodrigues(Vec3d(0.25, 0, 0), tilt);  // looking 14 degrees down at the back wall
         first.R = Matx33d(tilt) * Matx33d(1, 0, 0, 0, 0, -1, 0, 1, 0);
         first.t = -(first.R * Vec3d(0, 0, 1.5));  // 1.5 m above the world origin
         s0.camera = first;

@@ -187,7 +187,7 @@ TEST(CalibTracking, ColmapOnSyntheticHandheldRoom) {
     s0.room.max = Vec3d(2, 4, 2.6);
     Camera first = Camera::fromFocal(260, s0.image_size);
     Mat tilt;
-    Rodrigues(Vec3d(-0.25, 0, 0), tilt);  // looking slightly down
+    Rodrigues(Vec3d(0.25, 0, 0), tilt);  // looking 14 degrees down
     first.R = Matx33d(tilt) * Matx33d(1, 0, 0, 0, 0, -1, 0, 1, 0);
     first.t = -(first.R * Vec3d(0, 0, 1.5));
     s0.camera = first;
@@ -206,12 +206,20 @@ TEST(CalibTracking, ColmapOnSyntheticHandheldRoom) {
                                               CameraTrackingOptions(), &report);
     ASSERT_EQ(path.frames.size(), (size_t)n);
     double ate2 = 0, worst_rot = 0, placement2 = 0, len_true = 0, len_est = 0;
-    const Vec3d floor_pt(0.2, 2.0, 0.0);
+    int placed = 0;
+    // Where a user would put an object: the floor point seen at (w/2, 3h/4) in frame 0.
+    const Vec3d ray = first.rayDirection(Point2d(160, 180));
+    const Vec3d floor_pt = first.center() + ray * (-first.center()[2] / ray[2]);
     for (int i = 0; i < n; ++i) {
         const Camera est = path.camera(i);
         ate2 += std::pow(norm(est.center() - truth[i].center()), 2);
         worst_rot = std::max(worst_rot, rotationErrorDeg(est.R, truth[i].R));
-        placement2 += std::pow(norm(est.project(floor_pt) - truth[i].project(floor_pt)), 2);
+        double depth = 0;
+        const Point2d seen = truth[i].project(floor_pt, &depth);
+        if (depth > 0 && Rect(0, 0, 320, 240).contains(Point(cvRound(seen.x), cvRound(seen.y)))) {
+            placement2 += std::pow(norm(est.project(floor_pt) - seen), 2);  // only while in view
+            ++placed;
+        }
         if (std::getenv("VBME_VERBOSE"))
             std::printf(
                 "frame %2d: centre err %.2f mm rot err %.3f deg placement %.2f px (%+.2f, %+.2f)\n",
@@ -225,7 +233,8 @@ TEST(CalibTracking, ColmapOnSyntheticHandheldRoom) {
             len_est += norm(est.center() - path.camera(i - 1).center());
         }
     }
-    const double ate = std::sqrt(ate2 / n), placement = std::sqrt(placement2 / n),
+    ASSERT_GT(placed, n / 2);
+    const double ate = std::sqrt(ate2 / n), placement = std::sqrt(placement2 / placed),
                  scale_err = std::abs(len_est / len_true - 1);
     std::printf(
         "COLMAP: %d/%d frames registered, %d model(s), reprojection RMS "
@@ -235,15 +244,13 @@ TEST(CalibTracking, ColmapOnSyntheticHandheldRoom) {
         report.scale.spread, report.scale.used, report.scale.total, report.seconds);
     std::printf(
         "ATE %.2f cm, worst rotation error %.3f deg, scale error %.2f "
-        "%%, floor-point placement RMS %.3f px\n",
-        ate * 100, worst_rot, scale_err * 100, placement);
+        "%%, floor-point placement RMS %.3f px over %d frames in view\n",
+        ate * 100, worst_rot, scale_err * 100, placement, placed);
     EXPECT_GE(report.registered, n - 2);
     EXPECT_LE(ate, 0.02);
     EXPECT_LE(worst_rot, 0.2);
     EXPECT_LE(scale_err, 0.01);
-    // The issue asks 0.5 px; with the Ceres refinement ~0.53 px is measured here (0.77-0.81 px
-    // with COLMAP's poses alone). The bound below keeps what is reached from regressing.
-    EXPECT_LE(placement, 0.75);
+    EXPECT_LE(placement, 0.5);
 }
 
 TEST(CalibTracking, BlenderScriptUsesBlenderCameraAxes) {
@@ -280,3 +287,55 @@ TEST(CalibTracking, BlenderScriptUsesBlenderCameraAxes) {
     EXPECT_NE(text.find("data.lens = 29.25"), std::string::npos);  // 260 px × 36 mm / 320 px
     EXPECT_NE(text.find("scene.render.fps = 30"), std::string::npos);
 }
+
+#if __has_include(<opencv2/vbme/render.hpp>)
+#include <opencv2/vbme/render.hpp>
+
+TEST(CalibTracking, TexturedRoomSequenceMatchesVbmeRender) {
+    // The camera-tracking tests' frames are an exact albedo ray-cast of a textured box; the
+    // same room rendered by vbme_render (albedo AOV, textures decoded from sRGB) must look the
+    // same, face orientations included.
+    vbme_test::ScratchDir tmp;
+    Scene s;
+    s.image_size = Size(160, 120);
+    s.has_room = true;
+    s.room.min = Vec3d(-2, -1, 0);
+    s.room.max = Vec3d(2, 4, 2.6);
+    const auto textures = makeRoomTextures(3, 256);
+    for (const auto& kv : textures) {
+        imwrite(tmp / (kv.first + ".png"), kv.second);
+        s.room.textures[kv.first] = tmp / (kv.first + ".png");
+    }
+    Light sky;
+    sky.type = Light::ENVIRONMENT;
+    sky.radiance = Vec3d(1, 1, 1);
+    s.lights = {sky};
+    Renderer::Params rp;
+    rp.spp = 16;
+    rp.max_depth = 1;
+    Ptr<RenderScene> scene = RenderScene::create(s);
+    Ptr<Renderer> renderer = Renderer::create(rp);
+    // Cameras looking at every face: the back wall, the front wall, left, right, down and up.
+    const Vec3d eye(0.3, 1.2, 1.4);
+    const Vec3d looks[6] = {{0, 1, 0}, {0, -1, 0},     {-1, 0, 0},
+                            {1, 0, 0}, {0.1, 0.2, -1}, {0.1, 0.2, 1}};
+    for (const Vec3d& look : looks) {
+        Camera cam = Camera::fromFocal(90, s.image_size);
+        const Vec3d z = normalize(look),
+                    up = std::abs(z[2]) > 0.9 ? Vec3d(0, 1, 0) : Vec3d(0, 0, 1);
+        const Vec3d x = normalize(z.cross(up)), y = z.cross(x);
+        cam.R = Matx33d(x[0], x[1], x[2], y[0], y[1], y[2], z[0], z[1], z[2]);
+        cam.t = -(cam.R * eye);
+        RenderImages out;
+        renderer->render(*scene, cam, out);
+        Mat ours, ours_lin;
+        linearize(renderTexturedRoom(cam, s.room, textures, 4), ours_lin, Response::SRGB);
+        Mat diff;
+        absdiff(out.albedo, ours_lin, diff);
+        const Scalar m = mean(diff);
+        EXPECT_LT((m[0] + m[1] + m[2]) / 3, 0.005) << "looking along " << look;
+        std::printf("looking along (%g, %g, %g): mean |difference| %.4f\n", look[0], look[1],
+                    look[2], (m[0] + m[1] + m[2]) / 3);
+    }
+}
+#endif

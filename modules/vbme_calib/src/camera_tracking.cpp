@@ -209,19 +209,18 @@ CameraPath alignToRoom(const ColmapModel& model, const std::vector<std::string>&
     return path;
 }
 
-CameraPath trackCameraFrames(const std::string& frames_dir, const std::vector<std::string>& names,
-                             const Scene& frame0, const std::string& work_dir,
-                             const CameraTrackingOptions& opt, CameraTrackingReport* report) {
-    const auto t0 = std::chrono::steady_clock::now();
-    const std::vector<ColmapModel> models =
-        runColmapSfM(frames_dir, work_dir, frame0.camera.K, frame0.image_size, opt.colmap);
-    // The model that holds frame 0 is the one tied to the annotation.
+namespace {
+
+// The model holding frame 0 is the one tied to the annotation (COLMAP may split a video into
+// several); align it and fill the report.
+CameraPath alignModelWithFrame0(const std::vector<ColmapModel>& models,
+                                const std::vector<std::string>& names, const Scene& frame0,
+                                const std::string& work_dir, const CameraTrackingOptions& opt,
+                                std::chrono::steady_clock::time_point t0,
+                                CameraTrackingReport* report) {
     const ColmapModel* chosen = nullptr;
     for (const auto& m : models)
-        if (m.imageByName(names.at(0))) {
-            chosen = &m;
-            break;
-        }
+        if (!chosen && m.imageByName(names.at(0))) chosen = &m;
     if (!chosen)
         CV_Error(Error::StsError, "COLMAP did not register frame 0 ('" + names[0] +
                                       "') in any of its " + std::to_string(models.size()) +
@@ -232,6 +231,17 @@ CameraPath trackCameraFrames(const std::string& frames_dir, const std::vector<st
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (report) *report = r;
     return path;
+}
+
+}  // namespace
+
+CameraPath trackCameraFrames(const std::string& frames_dir, const std::vector<std::string>& names,
+                             const Scene& frame0, const std::string& work_dir,
+                             const CameraTrackingOptions& opt, CameraTrackingReport* report) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::vector<ColmapModel> models =
+        runColmapSfM(frames_dir, work_dir, frame0.camera.K, frame0.image_size, opt.colmap);
+    return alignModelWithFrame0(models, names, frame0, work_dir, opt, t0, report);
 }
 
 CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
@@ -292,19 +302,7 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
             runColmapSfM(frames.string(), work_dir, frame0.camera.K, frame0.image_size, opt.colmap);
         std::ofstream(done.string()) << models.size() << "\n";
     }
-    const ColmapModel* chosen = nullptr;
-    for (const auto& m : models)
-        if (m.imageByName(names[0])) chosen = chosen ? chosen : &m;
-    if (!chosen)
-        CV_Error(Error::StsError, "COLMAP did not register frame 0 in any of its " +
-                                      std::to_string(models.size()) + " model(s); see " +
-                                      (work / "colmap.log").string());
-    CameraTrackingReport r;
-    CameraPath path = alignToRoom(*chosen, names, frame0, opt, &r);
-    r.models = (int)models.size();
-    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (report) *report = r;
-    return path;
+    return alignModelWithFrame0(models, names, frame0, work_dir, opt, t0, report);
 }
 
 void drawRoomBox(InputOutputArray _image, const Camera& cam, const Room& room, const Scalar& colour,

@@ -105,8 +105,13 @@ Mat renderTexturedRoom(const Camera& cam, const Room& room,
                             ua = 1, va = 2;
                         else
                             ua = 0, va = 2;
-                        const double u = (p[ua] - room.min[ua]) / (room.max[ua] - room.min[ua]);
-                        const double v = (p[va] - room.min[va]) / (room.max[va] - room.min[va]);
+                        double u = (p[ua] - room.min[ua]) / (room.max[ua] - room.min[ua]);
+                        double v = (p[va] - room.min[va]) / (room.max[va] - room.min[va]);
+                        // Upright as seen from inside the room (vbme_render's convention):
+                        // the ceiling's image up is −y, the right wall's image right is −y,
+                        // the front wall's image right is −x.
+                        if (face == 1) v = 1 - v;
+                        if (face == 3 || face == 4) u = 1 - u;
                         const float tx = float(u * t.cols - 0.5),
                                     ty = float((1 - v) * t.rows - 0.5);
                         const int x0 = std::max(0, std::min(t.cols - 2, (int)std::floor(tx)));

@@ -27,10 +27,9 @@ pixel's ray is intersected with the box (exact), the face texture is sampled
 bilinearly, @p supersample² rays per pixel are averaged. Albedo only (no
 lighting): an exact image for camera-tracking tests.
 
-Texture orientation (looking at the face from inside the room is irrelevant:
-coordinates are world axes): floor and ceiling map x → columns, y → rows upwards
-(row 0 at y = max); left and right walls map y → columns, z → rows upwards;
-front and back walls map x → columns, z → rows upwards. Faces without a texture
+Texture orientation: each face shows its image upright as seen from inside the room, as
+vbme_render maps room textures (image right / image up): floor +x / +y, ceiling +x / −y,
+back +x / +z, front −x / +z, left +y / +z, right −y / +z. Faces without a texture
 are mid-grey.
 @return 8-bit BGR image of camera.image_size. */
 CV_EXPORTS Mat renderTexturedRoom(const Camera& camera, const Room& room,
