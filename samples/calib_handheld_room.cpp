@@ -3,9 +3,8 @@
 // user would get from `vbme calibrate`, to try `vbme track-camera` on:
 //
 //   vbme_sample_calib_handheld_room OUT_DIR [FRAMES]
-//   vbme track-camera --video OUT_DIR/walk.mkv --scene OUT_DIR/frame0.yml --out OUT_DIR/cameras.yml
-//   \
-//        --overlay OUT_DIR/overlay.mp4
+//   vbme track-camera --video OUT_DIR/walk.mkv --scene OUT_DIR/frame0.yml
+//        --out OUT_DIR/cameras.yml --overlay OUT_DIR/overlay.mp4
 //
 // OUT_DIR/true_cameras.yml holds the true camera path to compare with.
 #include <cstdio>

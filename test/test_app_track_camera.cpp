@@ -78,3 +78,78 @@ TEST(AppTrackCamera, MissingSceneIsBadInput) {
     EXPECT_EQ(r.code, 1);
     EXPECT_NE(r.output.find("none.yml"), std::string::npos) << r.output;
 }
+
+#if __has_include(<opencv2/vbme/calib.hpp>)
+#include <chrono>
+#include <fstream>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/vbme/calib.hpp>
+
+TEST(AppTrackCamera, TracksAVideoWithStrideAndResumes) {
+    if (vbme_test::run("colmap help").code != 0)
+        GTEST_SKIP() << "the colmap program is not installed";
+    vbme_test::ScratchDir dir;
+    // A 24-frame hand-held walk in a textured room, as a lossless video, and its true frame-0
+    // scene.
+    Scene s0;
+    s0.image_size = Size(320, 240);
+    s0.has_room = true;
+    s0.room.min = Vec3d(-2, -1, 0);
+    s0.room.max = Vec3d(2, 4, 2.6);
+    Camera first = Camera::fromFocal(260, s0.image_size);
+    Mat tilt;
+    Rodrigues(Vec3d(0.25, 0, 0), tilt);
+    first.R = Matx33d(tilt) * Matx33d(1, 0, 0, 0, 0, -1, 0, 1, 0);
+    first.t = -(first.R * Vec3d(0, 0, 1.5));
+    s0.camera = first;
+    s0.write(dir / "frame0.yml");
+    const int n = 24;
+    const std::vector<Camera> truth = handheldCameraPath(first, n, 1.0, 0.01, 0.4, 9);
+    const auto textures = makeRoomTextures(4, 512);
+    {
+        VideoSink sink(dir / "walk.mkv", 24, s0.image_size);
+        for (int i = 0; i < n; ++i)
+            sink.write(renderTexturedRoom(truth[i], s0.room, textures, 2));
+        sink.close();
+    }
+    const std::string cmd = kVbme + " track-camera -q --video " + (dir / "walk.mkv") + " --scene " +
+                            (dir / "frame0.yml") + " --out " + (dir / "cams.yml") +
+                            " --stride 2 --overlay " + (dir / "overlay.mp4") + " --blender " +
+                            (dir / "track.py");
+    auto t0 = std::chrono::steady_clock::now();
+    const auto r1 = vbme_test::run(cmd);
+    const double first_run =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ASSERT_EQ(r1.code, 0) << r1.output;
+    const CameraPath path = CameraPath::read(dir / "cams.yml");
+    ASSERT_EQ(path.frames.size(), (size_t)n);
+    double ate2[2] = {0, 0};
+    for (int i = 0; i < n; ++i) {
+        EXPECT_EQ(path.frames[i].source, i % 2 ? CameraPath::INTERPOLATED : CameraPath::SFM) << i;
+        ate2[i % 2] += std::pow(norm(path.camera(i).center() - truth[i].center()), 2);
+    }
+    // Reconstructed frames are accurate; interpolated ones miss the hand shake between them.
+    const double ate_sfm = std::sqrt(ate2[0] / (n / 2)), ate_interp = std::sqrt(ate2[1] / (n / 2));
+    std::printf("stride 2: ATE %.2f cm on reconstructed frames, %.2f cm on interpolated ones\n",
+                ate_sfm * 100, ate_interp * 100);
+    EXPECT_LT(ate_sfm, 0.02) << r1.output;
+    EXPECT_LT(ate_interp, 0.05) << r1.output;
+    for (const char* f : {"cams_report.yml", "cams_colmap/images.txt", "overlay.mp4", "track.py"})
+        EXPECT_TRUE(fs::exists(dir / f)) << f;
+
+    // Again, forced: the work folder's frames and COLMAP run are reused, the result is the same.
+    std::ifstream a(dir / "cams.yml");
+    const std::string before((std::istreambuf_iterator<char>(a)), std::istreambuf_iterator<char>());
+    t0 = std::chrono::steady_clock::now();
+    const auto r2 = vbme_test::run(cmd + " --force");
+    const double second_run =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ASSERT_EQ(r2.code, 0) << r2.output;
+    std::ifstream b(dir / "cams.yml");
+    const std::string after((std::istreambuf_iterator<char>(b)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(before, after);
+    std::printf("first run %.1f s, resumed run %.1f s\n", first_run, second_run);
+    EXPECT_LT(second_run, 0.5 * first_run);
+}
+#endif

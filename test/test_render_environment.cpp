@@ -97,7 +97,9 @@ TEST(RenderEnvironment, PixelDirectionRoundTripWithRotation) {
         const Point2f q(rng.uniform(-0.5f, w - 0.5f), rng.uniform(-0.5f, h - 0.5f));
         const Point2f q2 = env.directionToPixel(env.pixelToDirection(q));
         EXPECT_NEAR(q2.y, q.y, 2e-2);
-        if (q.y > 1 && q.y < h - 2) EXPECT_NEAR(q2.x, q.x, 2e-2);
+        if (q.y > 1 && q.y < h - 2) {
+            EXPECT_NEAR(q2.x, q.x, 2e-2);
+        }
     }
     // world_from_env rotates the map: the map's +x (image centre) appears at world R·x.
     const Vec3f centre = env.pixelToDirection(Point2f((w - 1) / 2.f, (h - 1) / 2.f));
