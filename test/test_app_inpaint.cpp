@@ -82,7 +82,6 @@ TEST(AppInpaint, UsageErrorsExitTwoAndWriteNothing) {
          {std::string(""), "--image " + c.in + " --out " + c.out,  // no mask
           io + " --video " + c.in + " --masks " + c.dir.path().string(), io + " --method kdtree",
           io + " --patch 8", io + " --patch 1", "--mask " + c.mask + " --out " + c.out,
-          "--image " + c.dir / "missing.png" + " --mask " + c.mask + " --out " + c.out,
           io + " --bogus"}) {
         const auto r = c.run(args);
         EXPECT_EQ(r.code, 2) << args << "\n" << r.output;
@@ -92,6 +91,14 @@ TEST(AppInpaint, UsageErrorsExitTwoAndWriteNothing) {
 
 TEST(AppInpaint, BadInputExitsOneWithAMessageAndWritesNothing) {
     ImageCase c;
+    // A missing input is bad input (exit 1), as for every command.
+    {
+        const auto m =
+            c.run("--image " + c.dir / "missing.png" + " --mask " + c.mask + " --out " + c.out);
+        EXPECT_EQ(m.code, 1) << m.output;
+        EXPECT_NE(m.output.find("does not exist"), std::string::npos) << m.output;
+        EXPECT_FALSE(fs::exists(c.out));
+    }
     // Mask of another size.
     imwrite(c.dir / "small.png", Mat::zeros(10, 10, CV_8U));
     auto r = c.run("--image " + c.in + " --mask " + c.dir / "small.png" + " --out " + c.out);

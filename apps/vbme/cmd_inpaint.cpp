@@ -116,15 +116,14 @@ void runVideo(const InpaintOptions& o) {
 
 void setupInpaint(CLI::App& app) {
     auto opt = std::make_shared<InpaintOptions>();
-    app.description(
+    app.footer(
         "Remove an object by exemplar-based inpainting.\n"
         "  image: vbme inpaint --image IN.png --mask HOLE.png --out OUT.png\n"
         "  video: vbme inpaint --video IN.mp4 --masks DIR --out OUT.mp4\n"
         "Masks are 8-bit, non-zero = hole (255 = object); a video's are DIR/mask_%05d.png from "
         "frame 0, as 'vbme track' writes them.");
-    auto* image = app.add_option("--image", opt->image, "Input image")->check(CLI::ExistingFile);
-    auto* mask = app.add_option("--mask", opt->mask, "Hole mask of the image (non-zero = fill)")
-                     ->check(CLI::ExistingFile);
+    auto* image = app.add_option("--image", opt->image, "Input image");
+    auto* mask = app.add_option("--mask", opt->mask, "Hole mask of the image (non-zero = fill)");
     auto* video = app.add_option("--video", opt->video, "Input video file or image folder");
     auto* masks = app.add_option("--masks", opt->masks, "Folder of per-frame masks mask_%05d.png");
     app.add_option("--out", opt->out, "Output image or video")->required();
