@@ -10,7 +10,6 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include <opencv2/calib3d.hpp>
 #include <opencv2/vbme/calib.hpp>
 
 using namespace cv;
@@ -24,17 +23,8 @@ int main(int argc, char** argv) {
     try {
         const std::string out = argv[1];
         const int frames = argc > 2 ? std::atoi(argv[2]) : 40;
-        Scene s0;
-        s0.image_size = Size(320, 240);
-        s0.has_room = true;
-        s0.room.min = Vec3d(-2, -1, 0);
-        s0.room.max = Vec3d(2, 4, 2.6);
-        Camera first = Camera::fromFocal(260, s0.image_size);
-        Mat tilt;
-        Rodrigues(Vec3d(0.25, 0, 0), tilt);  // looking 14 degrees down at the back wall
-        first.R = Matx33d(tilt) * Matx33d(1, 0, 0, 0, 0, -1, 0, 1, 0);
-        first.t = -(first.R * Vec3d(0, 0, 1.5));  // 1.5 m above the world origin
-        s0.camera = first;
+        const Scene s0 = syntheticRoomScene();  // 4 x 5 x 2.6 m room, camera 1.5 m up
+        const Camera first = s0.camera;
         const std::vector<Camera> path = handheldCameraPath(first, frames, 1.5, 0.01, 0.4, 5);
         const auto textures = makeRoomTextures(3, 1024);
         VideoSink video(out + "/walk.mkv", 30, s0.image_size);

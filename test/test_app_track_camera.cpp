@@ -83,7 +83,6 @@ TEST(AppTrackCamera, MissingSceneIsBadInput) {
 #include <chrono>
 #include <fstream>
 
-#include <opencv2/calib3d.hpp>
 #include <opencv2/vbme/calib.hpp>
 
 TEST(AppTrackCamera, TracksAVideoWithStrideAndResumes) {
@@ -92,17 +91,8 @@ TEST(AppTrackCamera, TracksAVideoWithStrideAndResumes) {
     vbme_test::ScratchDir dir;
     // A 24-frame hand-held walk in a textured room, as a lossless video, and its true frame-0
     // scene.
-    Scene s0;
-    s0.image_size = Size(320, 240);
-    s0.has_room = true;
-    s0.room.min = Vec3d(-2, -1, 0);
-    s0.room.max = Vec3d(2, 4, 2.6);
-    Camera first = Camera::fromFocal(260, s0.image_size);
-    Mat tilt;
-    Rodrigues(Vec3d(0.25, 0, 0), tilt);
-    first.R = Matx33d(tilt) * Matx33d(1, 0, 0, 0, 0, -1, 0, 1, 0);
-    first.t = -(first.R * Vec3d(0, 0, 1.5));
-    s0.camera = first;
+    const Scene s0 = syntheticRoomScene();
+    const Camera first = s0.camera;
     s0.write(dir / "frame0.yml");
     const int n = 24;
     const std::vector<Camera> truth = handheldCameraPath(first, n, 1.0, 0.01, 0.4, 9);

@@ -180,17 +180,8 @@ TEST(CalibTracking, ColmapOnSyntheticHandheldRoom) {
     vbme_test::ScratchDir tmp;
     // A 4 x 5 m room, 2.6 m high; 40 frames at 320x240 of a hand-held walk of
     // ~1.5 m.
-    Scene s0;
-    s0.image_size = Size(320, 240);
-    s0.has_room = true;
-    s0.room.min = Vec3d(-2, -1, 0);
-    s0.room.max = Vec3d(2, 4, 2.6);
-    Camera first = Camera::fromFocal(260, s0.image_size);
-    Mat tilt;
-    Rodrigues(Vec3d(0.25, 0, 0), tilt);  // looking 14 degrees down
-    first.R = Matx33d(tilt) * Matx33d(1, 0, 0, 0, 0, -1, 0, 1, 0);
-    first.t = -(first.R * Vec3d(0, 0, 1.5));
-    s0.camera = first;
+    const Scene s0 = syntheticRoomScene();
+    const Camera first = s0.camera;
     const int n = 40;
     const std::vector<Camera> truth = handheldCameraPath(first, n, 1.5, 0.01, 0.4, 5);
     const auto textures = makeRoomTextures(3, 1024);

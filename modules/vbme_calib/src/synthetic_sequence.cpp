@@ -133,6 +133,20 @@ Mat renderTexturedRoom(const Camera& cam, const Room& room,
     return out;
 }
 
+Scene syntheticRoomScene(Size size, double focal, double pitch_rad, double height) {
+    Scene s;
+    s.image_size = size;
+    s.has_room = true;
+    s.room.min = Vec3d(-2, -1, 0);
+    s.room.max = Vec3d(2, 4, 2.6);
+    s.camera = Camera::fromFocal(focal, size);
+    Mat pitch;
+    Rodrigues(Vec3d(pitch_rad, 0, 0), pitch);  // about the camera's x axis: positive looks down
+    s.camera.R = Matx33d(pitch) * Matx33d(1, 0, 0, 0, 0, -1, 0, 1, 0);
+    s.camera.t = -(s.camera.R * Vec3d(0, 0, height));
+    return s;
+}
+
 std::vector<Camera> handheldCameraPath(const Camera& first, int frames, double travel,
                                        double shake_m, double shake_deg, int seed) {
     CV_Assert(frames >= 1);

@@ -35,6 +35,13 @@ are mid-grey.
 CV_EXPORTS Mat renderTexturedRoom(const Camera& camera, const Room& room,
                                   const std::map<std::string, Mat>& textures, int supersample = 2);
 
+/** @brief The frame-0 scene of the synthetic sequences: a 4 × 5 × 2.6 m room
+(x ∈ [−2, 2], y ∈ [−1, 4], z ∈ [0, 2.6]) and a camera @p height metres above the world
+origin facing the back wall (+y), pitched @p pitch_rad down, with focal length @p focal
+(pixels) for images of @p size. */
+CV_EXPORTS Scene syntheticRoomScene(Size size = Size(320, 240), double focal = 260,
+                                    double pitch_rad = 0.25, double height = 1.5);
+
 /** @brief A hand-held camera path starting at @p first: a smooth walk of about
 @p travel metres (sideways and forwards) with slow panning, plus hand shake
 (random, band-limited) of @p shake_m metres and @p shake_deg degrees.
