@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/vbme/render.hpp>
 
 #include "test_render_util.hpp"
@@ -159,4 +160,64 @@ TEST(AppRender, CameraPathFrame) {
             dir / "cams.yml --frame 2");
     EXPECT_EQ(r.code, 1) << r.output;
     EXPECT_FALSE(std::filesystem::exists(dir / "d.exr"));
+}
+
+// --- differential rendering (--differential) ---
+
+TEST(AppRender, DifferentialUsageAndBadInput) {
+    ScratchDir dir;
+    const std::string scene = writeScene(dir);
+    imwrite(dir / "bg.png", Mat(12, 16, CV_8UC3, Scalar(90, 100, 110)));
+    imwrite(dir / "wrong.png", Mat(12, 15, CV_8UC3, Scalar(90, 100, 110)));
+    const std::string base = exe() + " --scene " + scene + " --out " + dir / "d.exr";
+    EXPECT_EQ(run(base + " --differential").code, 2);                  // no --background
+    EXPECT_EQ(run(base + " --background " + dir / "bg.png").code, 2);  // no --differential
+    EXPECT_EQ(
+        run(base + " --differential --background " + dir / "bg.png --composite " + dir / "c.jpg")
+            .code,
+        2);
+    EXPECT_EQ(run(base + " --differential --no-objects --background " + dir / "bg.png").code, 2);
+    EXPECT_EQ(run(base + " --differential --mask exact --background " + dir / "bg.png").code, 2);
+    EXPECT_EQ(run(base + " --frame-seeds per-frame").code, 2);  // needs --cameras
+    const int before = countFiles(dir);
+    auto r = run(base + " --differential --background " + dir / "wrong.png --composite " +
+                 dir / "c.png");
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("15x12"), std::string::npos) << r.output;
+    r = run(base + " --differential --background " + dir / "none.png");
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_EQ(countFiles(dir), before);  // nothing (half-)written
+}
+
+// The EXR carries every layer; the composite PNG is what `vbme composite` makes from them; with
+// no object in the scene the composite is the frame, bit for bit.
+TEST(AppRender, DifferentialWritesLayersAndComposite) {
+    ScratchDir dir;
+    const std::string scene = writeScene(dir);
+    Mat bg(12, 16, CV_8UC3);
+    randu(bg, 0, 256);
+    imwrite(dir / "bg.png", bg);
+    auto r = run(exe() + " --scene " + scene + " --out " + dir / "d.exr --differential " +
+                 "--background " + dir / "bg.png --composite " + dir / "c.png");
+    ASSERT_EQ(r.code, 0) << r.output;
+    std::map<std::string, std::string> attr;
+    const auto ch = readExrChannels(dir / "d.exr", &attr);
+    for (const char* n : {"R", "G", "B", "obj.R", "obj.G", "obj.B", "noobj.R", "noobj.G", "noobj.B",
+                          "diff.R", "diff.G", "diff.B", "mask"})
+        EXPECT_EQ(ch.count(n), 1u) << n;
+    EXPECT_EQ(attr["vbme.seed"], "5");
+    EXPECT_GT(countNonZero(ch.at("mask")), 0);
+    r = run(std::string(VBME_EXE) + " composite -q --background " + dir / "bg.png --layers " +
+            dir / "d.exr --out " + dir / "c2.png");
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(norm(imread(dir / "c.png"), imread(dir / "c2.png"), NORM_INF), 0.0);
+    EXPECT_GT(norm(imread(dir / "c.png"), bg, NORM_INF), 0.0);
+
+    Scene s = Scene::read(scene);
+    s.objects.clear();
+    s.write(dir / "empty.yml");
+    r = run(exe() + " --scene " + dir / "empty.yml --out " + dir / "e.exr --differential " +
+            "--background " + dir / "bg.png --composite " + dir / "e.png");
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(norm(imread(dir / "e.png"), bg, NORM_INF), 0.0);
 }

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <thread>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/vbme/render.hpp>
 
 #include "command.hpp"
@@ -18,6 +19,10 @@ struct RenderOptions {
     long long seed = -1;
     float clamp = 0;
     bool no_objects = false, preview = false;
+    // differential rendering
+    bool differential = false, independent = false;
+    std::string background, composite, mask = "projected", frame_seeds = "fixed";
+    float alpha = 1.f;
     CommonOptions common;
 };
 
@@ -28,10 +33,73 @@ std::string lowerExt(const std::string& p) {
     return e;
 }
 
+void runDifferential(const RenderOptions& o, const cv::vbme::Scene& scene,
+                     const cv::vbme::Camera& camera, const cv::vbme::Renderer::Params& p) {
+    using namespace cv::vbme;
+    // The frame first: a wrong size is bad input, found before any rendering.
+    const cv::Mat frame = imreadChecked(o.background, cv::IMREAD_ANYDEPTH | cv::IMREAD_COLOR);
+    if (frame.size() != camera.image_size)
+        CV_Error(cv::Error::StsBadSize,
+                 cv::format("--background '%s' is %dx%d, the render is %dx%d (use --width/--height "
+                            "or a frame of the render's size)",
+                            o.background.c_str(), frame.cols, frame.rows, camera.image_size.width,
+                            camera.image_size.height));
+    if (frame.depth() != CV_8U && frame.depth() != CV_16U)
+        CV_Error(cv::Error::StsBadArg,
+                 "--background '" + o.background + "': expected an 8- or 16-bit image");
+    DifferentialRenderer::Params dp;
+    dp.render = p;
+    dp.independent = o.independent;
+    dp.coverage = parseCoverage(o.mask);
+    cv::Ptr<RenderScene> rs = RenderScene::create(scene);
+    DifferentialImages im;
+    RenderStats st;
+    {
+        Progress progress("render", (int64)camera.image_size.area() * (o.independent ? 2 : 1));
+        st = DifferentialRenderer::create(dp)->render(*rs, camera, im, &progress);
+    }
+    CompositeParams cp;
+    cp.alpha = o.alpha;
+    cp.response = camera.response;
+    cv::Mat linear;
+    compositeDifferential(frame, im.obj, im.diff, im.mask, linear, cp);
+    std::map<std::string, std::string> attr = {
+        {"vbme.version", VBME_VERSION},
+        {"vbme.commandLine", commandLine()},
+        {"vbme.seed", std::to_string(p.seed)},
+        {"vbme.spp", std::to_string(p.spp)},
+        {"vbme.maxDepth", std::to_string(p.max_depth)},
+        {"vbme.scene", o.scene},
+        {"vbme.background", o.background},
+        {"vbme.alpha", cv::format("%g", o.alpha)},
+        {"vbme.response", toString(camera.response)},
+        {"vbme.sampling", o.independent ? "independent" : "correlated"}};
+    writeDifferentialExr(o.out, im, linear, attr);
+    if (!o.composite.empty()) {
+        cv::Mat enc;
+        encodeComposite(linear, enc, camera.response, frame.depth());
+        imwriteAtomic(o.composite, enc);
+    }
+    if (!o.png.empty()) {
+        cv::Mat enc;
+        if (o.preview)
+            previewExposure(im.obj, enc);
+        else
+            encode(im.obj, enc, camera.response, CV_8U);
+        imwriteAtomic(o.png, enc);
+    }
+    std::printf(
+        "rendered %dx%d with and without the objects in %.2f s, %d samples/pixel "
+        "(%s samples), %.3g paths/s\n",
+        camera.image_size.width, camera.image_size.height, st.seconds, p.spp,
+        o.independent ? "independent" : "shared", st.seconds > 0 ? st.paths / st.seconds : 0.0);
+}
+
 void runRender(const RenderOptions& o) {
     using namespace cv::vbme;
     checkOverwrite(o.out, o.common.force);
     if (!o.png.empty()) checkOverwrite(o.png, o.common.force);
+    if (!o.composite.empty()) checkOverwrite(o.composite, o.common.force);
 
     const Scene scene = Scene::read(o.scene);
     Camera camera = scene.camera;
@@ -52,6 +120,7 @@ void runRender(const RenderOptions& o) {
     if (o.spp > 0) p.spp = o.spp;
     if (o.max_depth > 0) p.max_depth = o.max_depth;
     if (o.seed >= 0) p.seed = (uint64)o.seed;
+    if (!o.cameras.empty()) p.seed = frameSeed(p.seed, o.frame, parseFrameSeeding(o.frame_seeds));
     p.threads = o.threads;
     p.filter = parseFilter(o.filter);
     p.clamp = o.clamp;
@@ -59,6 +128,10 @@ void runRender(const RenderOptions& o) {
     p.with_objects = !o.no_objects;
     p.light_selection = Renderer::parseLightSelection(o.lights);
 
+    if (o.differential) {
+        runDifferential(o, scene, camera, p);
+        return;
+    }
     cv::Ptr<RenderScene> rs = RenderScene::create(scene);
     cv::Ptr<Renderer> renderer = Renderer::create(p);
     RenderImages img;
@@ -125,6 +198,11 @@ void setupRender(CLI::App& app) {
                    ->check(CLI::NonNegativeNumber);
     cams->needs(fr);
     fr->needs(cams);
+    app.add_option("--frame-seeds", o->frame_seeds,
+                   "Seed across the frames of --cameras: fixed (the same sample pattern in every "
+                   "frame, the default) or per-frame (hashed from the seed and --frame)")
+        ->check(CLI::IsMember({"fixed", "per-frame"}))
+        ->needs(cams);
     app.add_option("--filter", o->filter, "Pixel filter")
         ->check(CLI::IsMember({"box", "gaussian"}));
     app.add_option("--clamp", o->clamp, "Firefly clamp on a sample's largest channel (0: off)")
@@ -138,6 +216,26 @@ void setupRender(CLI::App& app) {
     app.add_flag(
         "--no-objects", o->no_objects,
         "Render without the scene's objects: (the background pass of differential rendering)");
+    auto* diff = app.add_flag("--differential", o->differential,
+                              "Differential rendering: render with and without the objects in one "
+                              "pass (same samples) and composite onto --background; the EXR gets "
+                              "R,G,B (composite), obj.*, noobj.*, diff.*, mask, object");
+    auto* bg = app.add_option("--background", o->background,
+                              "The input frame to composite onto (display-encoded with the scene "
+                              "camera's response, the render's size)");
+    auto* comp = app.add_option("--composite", o->composite,
+                                "Also write the composite encoded with the camera response "
+                                "(.png; 16-bit if the background is)");
+    auto* ind = app.add_flag("--independent", o->independent,
+                             "Give the two renders unrelated samples (two passes; for comparison)");
+    auto* al = app.add_option("--alpha", o->alpha, "Scale of the difference term (default 1)");
+    auto* mk = app.add_option("--mask", o->mask,
+                              "Coverage mask M: projected (triangles, 8x8 per pixel) or rays "
+                              "(the renderer's camera rays)")
+                   ->check(CLI::IsMember({"projected", "rays"}));
+    diff->needs(bg);
+    for (auto* opt : {bg, comp, ind, al, mk})
+        opt->needs(diff);
     addCommonOptions(app, o->common);
     app.callback([o] {
         if (lowerExt(o->out) != ".exr") throw CLI::ValidationError("--out", "must be an .exr file");
@@ -146,6 +244,10 @@ void setupRender(CLI::App& app) {
             if (e != ".png" && e != ".jpg" && e != ".jpeg")
                 throw CLI::ValidationError("--png", "must be a .png or .jpg file");
         }
+        if (!o->composite.empty() && lowerExt(o->composite) != ".png")
+            throw CLI::ValidationError("--composite", "must be a .png file");
+        if (o->differential && o->no_objects)
+            throw CLI::ValidationError("--differential", "excludes --no-objects");
         applyCommonOptions(o->common);
         runRender(*o);
     });

@@ -73,6 +73,7 @@ void Renderer::Params::write(FileStorage& fs) const {
     fs << "filter" << (filter == FILTER_GAUSSIAN ? "gaussian" : "box");
     fs << "clamp" << clamp << "rr_depth" << rr_depth << "tile_size" << tile_size << "aovs"
        << (int)aovs;
+    fs << "light_selection" << (light_selection == LIGHTS_POWER ? "power" : "uniform");
 }
 
 namespace {
@@ -136,7 +137,23 @@ struct PathInfo {
     Vec3f albedo, normal;
     bool touched_object = false;  // a vertex on an object, or a shadow ray blocked by one
     bool sees_object = false;     // the camera ray's first hit is an object
+    bool forked = false;          // the fork state (differential rendering) was recorded
     int64 rays = 0;
+};
+
+/** The state of a path at the start of a vertex: everything trace() needs to resume it. */
+struct PathState {
+    Vec3f L = Vec3f(0, 0, 0), beta = Vec3f(1, 1, 1);
+    float prev_pdf = 0.f;
+    bool prev_delta = true;  // the camera ray counts as specular: no MIS on what it sees
+    Vec3f prev_p, o, d;      // previous vertex; the ray about to be traced
+    int depth = 0;           // index of the vertex the ray is looking for
+    static PathState start(const Vec3f& o, const Vec3f& d) {
+        PathState s;
+        s.prev_p = s.o = o;
+        s.d = d;
+        return s;
+    }
 };
 
 class RendererImpl : public Renderer {
@@ -156,13 +173,18 @@ public:
     }
     RenderStats render(const RenderScene& scene, const Camera& camera, RenderImages& out,
                        Progress* progress) const override;
+    RenderStats renderDifferential(const RenderScene& scene, const Camera& camera,
+                                   RenderImages& with_objects, RenderImages& without_objects,
+                                   Progress* progress) const override;
     Vec3f radiance(const RenderScene& scene, const Vec3f& o, const Vec3f& d, const Point& pixel,
                    uint32_t index) const override {
         PathInfo info;
         const SobolSampler sampler(p_.seed);
         const RenderSceneImpl& rs = impl(scene);
         const LightSelector sel = makeSelector(rs, p_.light_selection);
-        return trace(rs, sel, sampler, o, d, sampler.pixelKey(pixel), index, info);
+        return trace(rs, sel, sampler, PathState::start(o, d), p_.with_objects,
+                     p_.aovs && p_.with_objects && rs.hasObjects(), sampler.pixelKey(pixel), index,
+                     info, nullptr);
     }
 
 private:
@@ -171,30 +193,36 @@ private:
         CV_Assert(r && "Renderer: the scene must come from RenderScene::create");
         return *r;
     }
+    /* Traces the path from state @p s (with or without the objects). @p track_objects: shadow
+    rays are closest-hit rays so that a blocking object is noticed. @p fork (needs
+    track_objects): receives the state at the start of the first vertex where the path
+    interacts with an object (info.forked is then set) — resuming it without the objects gives
+    the path of the render without them, sample for sample. */
     Vec3f trace(const RenderSceneImpl& scene, const LightSelector& lights,
-                const SobolSampler& sampler, Vec3f o, Vec3f d, uint64 px, uint32_t index,
-                PathInfo& info) const;
+                const SobolSampler& sampler, PathState s, bool with_objects, bool track_objects,
+                uint64 px, uint32_t index, PathInfo& info, PathState* fork) const;
+    RenderStats renderImpl(const RenderScene& scene, const Camera& camera, RenderImages& out,
+                           RenderImages* without, Progress* progress) const;
     Params p_;
 };
 
 Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lights,
-                          const SobolSampler& sampler, Vec3f o, Vec3f d, uint64 px, uint32_t index,
-                          PathInfo& info) const {
+                          const SobolSampler& sampler, PathState s, bool with_objects,
+                          bool track_objects, uint64 px, uint32_t index, PathInfo& info,
+                          PathState* fork) const {
     const bool nee = p_.integrator == PATH;
-    const bool with_objects = p_.with_objects;
-    // Object interactions through shadow rays are only tracked where they can happen and are
-    // reported (the AOVs of a render with objects).
-    const bool track_objects = p_.aovs && with_objects && scene.hasObjects();
     const auto& emitters = scene.emitters();
     const int n_lights = (int)emitters.size();
 
-    Vec3f L(0, 0, 0), beta(1, 1, 1);
-    float prev_pdf = 0.f;
-    bool prev_delta = true;  // the camera ray counts as specular: no MIS on what it sees
-    Vec3f prev_p = o;
+    Vec3f &L = s.L, &beta = s.beta, &prev_p = s.prev_p, &o = s.o, &d = s.d;
+    float& prev_pdf = s.prev_pdf;
+    bool& prev_delta = s.prev_delta;
     SurfaceHit hit;
+    PathState at_vertex;  // s at the start of this vertex (only kept while a fork may come)
 
-    for (int depth = 0;; ++depth) {
+    for (;; ++s.depth) {
+        const int depth = s.depth;
+        if (fork && !info.forked) at_vertex = s;
         ++info.rays;
         if (!scene.intersect(o, d, 0.f, kInf, hit, with_objects)) {
             for (int li : scene.infiniteEmitters()) {
@@ -210,6 +238,10 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
         }
         if (hit.kind == GeometryKind::OBJECT) {
             info.touched_object = true;
+            if (fork && !info.forked) {
+                *fork = at_vertex;
+                info.forked = true;
+            }
             if (depth == 0) info.sees_object = true;
         }
         const MaterialRec& m = scene.material(hit.geom_id, hit.prim_id);
@@ -268,7 +300,13 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
                         // closest hit instead of any hit, to tell whether an object blocks
                         SurfaceHit sh;
                         blocked = tfar > 0.f && scene.intersect(so, es.wi, 0.f, tfar, sh, true);
-                        if (blocked && sh.kind == GeometryKind::OBJECT) info.touched_object = true;
+                        if (blocked && sh.kind == GeometryKind::OBJECT) {
+                            info.touched_object = true;
+                            if (fork && !info.forked) {
+                                *fork = at_vertex;
+                                info.forked = true;
+                            }
+                        }
                     } else {
                         blocked = tfar > 0.f && scene.occluded(so, es.wi, 0.f, tfar, with_objects);
                     }
@@ -312,6 +350,21 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
 
 RenderStats RendererImpl::render(const RenderScene& scene_in, const Camera& camera,
                                  RenderImages& out, Progress* progress) const {
+    return renderImpl(scene_in, camera, out, nullptr, progress);
+}
+
+RenderStats RendererImpl::renderDifferential(const RenderScene& scene, const Camera& camera,
+                                             RenderImages& with_objects,
+                                             RenderImages& without_objects,
+                                             Progress* progress) const {
+    CV_Assert(&with_objects != &without_objects &&
+              "Renderer::renderDifferential: the two outputs must be different objects");
+    return renderImpl(scene, camera, with_objects, &without_objects, progress);
+}
+
+RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& camera,
+                                     RenderImages& out, RenderImages* without,
+                                     Progress* progress) const {
     const auto t0 = std::chrono::steady_clock::now();
     const RenderSceneImpl& scene = impl(scene_in);
     const PinholeCamera cam(camera);
@@ -333,6 +386,18 @@ RenderStats RendererImpl::render(const RenderScene& scene_in, const Camera& came
         out.object.release();
         out.mask.release();
     }
+    // Differential: trace with the objects; a path that interacts with one is resumed without
+    // them from the vertex where it first did (the fork), otherwise it counts for both.
+    const bool differential = without != nullptr;
+    const bool with_objects = differential || p_.with_objects;
+    const bool track_objects = scene.hasObjects() && with_objects && (differential || p_.aovs);
+    if (differential) {
+        without->color.create(sz, CV_32FC3);
+        without->albedo.release();
+        without->normal.release();
+        without->object.release();
+        without->mask.release();
+    }
     std::atomic<int64> rays{0};
     const uint32_t spp = (uint32_t)p_.spp;
     const double inv_spp = 1.0 / spp;
@@ -345,18 +410,31 @@ RenderStats RendererImpl::render(const RenderScene& scene_in, const Camera& came
             for (int x = x0; x < x1; ++x) {
                 const uint64 px = sampler.pixelKey(Point(x, y));
                 double c[3] = {0, 0, 0}, a[3] = {0, 0, 0}, n[3] = {0, 0, 0}, obj = 0, msk = 0;
+                double cn[3] = {0, 0, 0};  // without the objects (differential)
                 for (uint32_t s = 0; s < spp; ++s) {
                     const Vec2f off =
                         filterOffset(p_.filter, sampler.get2D(px, s, PathDims::kFilm));
                     Vec3f o, d;
                     cam.generateRay(Point2f(x + off[0], y + off[1]), o, d);
                     PathInfo info;
-                    Vec3f L = trace(scene, lights, sampler, o, d, px, s, info);
+                    PathState fork;
+                    Vec3f L = trace(scene, lights, sampler, PathState::start(o, d), with_objects,
+                                    track_objects, px, s, info, differential ? &fork : nullptr);
+                    Vec3f Ln = L;
+                    if (info.forked) {
+                        PathInfo info_n;
+                        Ln = trace(scene, lights, sampler, fork, false, false, px, s, info_n,
+                                   nullptr);
+                        tile_rays += info_n.rays;
+                    }
                     if (p_.clamp > 0.f) {
                         const float mc = maxComp(L);
                         if (mc > p_.clamp) L *= p_.clamp / mc;
+                        const float mn = maxComp(Ln);
+                        if (mn > p_.clamp) Ln *= p_.clamp / mn;
                     }
                     for (int k = 0; k < 3; ++k) {
+                        cn[k] += Ln[k];
                         c[k] += L[k];
                         a[k] += info.albedo[k];
                         n[k] += info.normal[k];
@@ -367,6 +445,9 @@ RenderStats RendererImpl::render(const RenderScene& scene_in, const Camera& came
                 }
                 out.color.at<Vec3f>(y, x) =
                     Vec3f(float(c[2] * inv_spp), float(c[1] * inv_spp), float(c[0] * inv_spp));
+                if (differential)
+                    without->color.at<Vec3f>(y, x) = Vec3f(
+                        float(cn[2] * inv_spp), float(cn[1] * inv_spp), float(cn[0] * inv_spp));
                 if (p_.aovs) {
                     out.albedo.at<Vec3f>(y, x) =
                         Vec3f(float(a[2] * inv_spp), float(a[1] * inv_spp), float(a[0] * inv_spp));

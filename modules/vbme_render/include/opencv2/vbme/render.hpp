@@ -11,12 +11,15 @@ A physically based, multi-threaded, bitwise-deterministic path tracer built on E
 next-event estimation and multiple importance sampling (Renderer), with Owen-scrambled Sobol
 samples that are a pure function of (pixel, sample, dimension, seed) (SobolSampler), BSDFs for
 the scene materials (Bsdf), lights (Emitter, EnvironmentMap), textures (Texture), and float
-OpenEXR / preview output (film.hpp). See doc/vbme_render.md.
+OpenEXR / preview output (film.hpp), and differential rendering with compositing into footage
+@cite Debevec1998 (DifferentialRenderer, projectObjectCoverage, compositeDifferential). See
+doc/vbme_render.md and doc/vbme_render_differential.md.
 */
 
 #include "opencv2/vbme/core.hpp"
 #include "opencv2/vbme/render/bsdf.hpp"
 #include "opencv2/vbme/render/camera.hpp"
+#include "opencv2/vbme/render/differential.hpp"
 #include "opencv2/vbme/render/environment.hpp"
 #include "opencv2/vbme/render/film.hpp"
 #include "opencv2/vbme/render/integrator.hpp"

@@ -101,6 +101,30 @@ public:
     virtual RenderStats render(const RenderScene& scene, const Camera& camera, RenderImages& out,
                                Progress* progress = nullptr) const = 0;
 
+    /** @brief Renders the scene with and without its `objects:` in one pass (differential
+    rendering @cite Debevec1998).
+
+    Each path is traced in the scene with the objects. As long as it does not interact with one
+    (no vertex on an object, no shadow ray blocked by one) its radiance is, sample for sample,
+    the one the render without the objects would compute, and it is used for both. At the first
+    vertex where it interacts, the path is resumed from that vertex's state without the objects
+    with the same (pixel, sample, dimension) numbers. The two images are therefore those of two
+    separate renders with Params::with_objects true and false and the same seed (up to the
+    floating-point identity of Embree's hits in its two BVHs), bit for bit equal wherever no
+    path met an object, at the cost of one render plus the interacting path suffixes.
+    Params::with_objects is ignored.
+    @param scene the scene.
+    @param camera the camera.
+    @param with_objects receives the render with the objects (colour and, if Params::aovs, the
+    AOVs; `object` then marks the pixels where the two renders may differ).
+    @param without_objects receives the colour of the render without the objects (no AOVs).
+    @param progress if not null, ticked once per finished pixel row of a tile.
+    @return timing and counts (rays of both passes). */
+    virtual RenderStats renderDifferential(const RenderScene& scene, const Camera& camera,
+                                           RenderImages& with_objects,
+                                           RenderImages& without_objects,
+                                           Progress* progress = nullptr) const = 0;
+
     /** @brief The radiance estimate of one path: sample @p index of pixel @p pixel along the
     ray (o, d) (for tests and tools that trace their own rays). */
     virtual Vec3f radiance(const RenderScene& scene, const Vec3f& o, const Vec3f& d,

@@ -1,0 +1,397 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Differential rendering: the two renders, the objects' coverage, the compositor, EXR layers.
+#include "opencv2/vbme/render/differential.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "opencv2/vbme/render/camera.hpp"
+#include "opencv2/vbme/render/film.hpp"
+#include "render_scene_impl.hpp"
+
+namespace cv {
+namespace vbme {
+
+CoverageMethod parseCoverage(const std::string& name) {
+    if (name == "projected") return COVERAGE_PROJECTED;
+    if (name == "rays") return COVERAGE_PRIMARY_RAYS;
+    CV_Error(Error::StsBadArg, "coverage: unknown '" + name + "' (expected projected or rays)");
+}
+
+FrameSeeding parseFrameSeeding(const std::string& name) {
+    if (name == "fixed") return SEEDS_FIXED;
+    if (name == "per-frame") return SEEDS_PER_FRAME;
+    CV_Error(Error::StsBadArg,
+             "frame seeding: unknown '" + name + "' (expected fixed or per-frame)");
+}
+
+uint64 frameSeed(uint64 seed, int frame, FrameSeeding mode) {
+    if (frame < 0)
+        CV_Error(Error::StsBadArg, cv::format("frameSeed: frame is %d, expected ≥ 0", frame));
+    if (mode == SEEDS_FIXED) return seed;
+    if (mode != SEEDS_PER_FRAME)
+        CV_Error(Error::StsBadArg, "frameSeed: mode must be SEEDS_FIXED or SEEDS_PER_FRAME");
+    // SplitMix64 finaliser of the seed combined with the frame index.
+    uint64 z = seed ^ (0x9E3779B97F4A7C15ull * (uint64(frame) + 1));
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+DifferentialRenderer::~DifferentialRenderer() = default;
+DifferentialRenderer::Params::Params() = default;
+
+void DifferentialRenderer::Params::read(const FileNode& fn) {
+    if (!fn["render"].empty()) render.read(fn["render"]);
+    if (!fn["method"].empty()) {
+        const std::string s = (std::string)fn["method"];
+        if (s == "one_pass")
+            method = ONE_PASS;
+        else if (s == "two_pass")
+            method = TWO_PASS;
+        else
+            CV_Error(Error::StsBadArg,
+                     "method: unknown '" + s + "' (expected one_pass or two_pass)");
+    }
+    if (!fn["independent"].empty()) independent = (int)fn["independent"] != 0;
+    if (!fn["coverage"].empty()) coverage = parseCoverage((std::string)fn["coverage"]);
+    if (!fn["coverage_supersampling"].empty())
+        coverage_supersampling = (int)fn["coverage_supersampling"];
+    if (!fn["coverage_occlusion"].empty()) coverage_occlusion = (int)fn["coverage_occlusion"] != 0;
+}
+
+void DifferentialRenderer::Params::write(FileStorage& fs) const {
+    fs << "render"
+       << "{";
+    render.write(fs);
+    fs << "}";
+    fs << "method" << (method == TWO_PASS ? "two_pass" : "one_pass");
+    fs << "independent" << (int)independent;
+    fs << "coverage" << (coverage == COVERAGE_PRIMARY_RAYS ? "rays" : "projected");
+    fs << "coverage_supersampling" << coverage_supersampling;
+    fs << "coverage_occlusion" << (int)coverage_occlusion;
+}
+
+void CompositeParams::read(const FileNode& fn) {
+    if (!fn["alpha"].empty()) alpha = (float)fn["alpha"];
+    if (!fn["response"].empty()) response = parseResponse((std::string)fn["response"]);
+}
+
+void CompositeParams::write(FileStorage& fs) const {
+    fs << "alpha" << alpha << "response" << toString(response);
+}
+
+namespace {
+
+using render_detail::RenderSceneImpl;
+
+/** Seed of the second render when the two must be independent. */
+uint64 independentSeed(uint64 seed) {
+    uint64 z = seed + 0x9E3779B97F4A7C15ull;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+class DifferentialRendererImpl : public DifferentialRenderer {
+public:
+    explicit DifferentialRendererImpl(const Params& p) { setParams(p); }
+    const Params& getParams() const override { return p_; }
+    void setParams(const Params& p) override {
+        if (p.method != ONE_PASS && p.method != TWO_PASS)
+            CV_Error(Error::StsBadArg, "DifferentialRenderer: method must be ONE_PASS or TWO_PASS");
+        if (p.coverage != COVERAGE_PROJECTED && p.coverage != COVERAGE_PRIMARY_RAYS)
+            CV_Error(Error::StsBadArg,
+                     "DifferentialRenderer: coverage must be COVERAGE_PROJECTED or "
+                     "COVERAGE_PRIMARY_RAYS");
+        if (p.coverage_supersampling < 1 || p.coverage_supersampling > 8)
+            CV_Error(Error::StsBadArg, cv::format("DifferentialRenderer: coverage_supersampling "
+                                                  "is %d, expected 1 … 8",
+                                                  p.coverage_supersampling));
+        Renderer::create(p.render);  // validates the render options
+        p_ = p;
+    }
+
+    RenderStats render(const RenderScene& scene, const Camera& camera, DifferentialImages& out,
+                       Progress* progress) const override {
+        Renderer::Params rp = p_.render;
+        // The primary-ray mask and the interaction fraction are AOVs of the render with objects.
+        rp.aovs = rp.aovs || p_.coverage == COVERAGE_PRIMARY_RAYS;
+        RenderImages with, without;
+        RenderStats st;
+        if (p_.method == ONE_PASS && !p_.independent) {
+            st = Renderer::create(rp)->renderDifferential(scene, camera, with, without, progress);
+        } else {
+            rp.with_objects = true;
+            st = Renderer::create(rp)->render(scene, camera, with, progress);
+            rp.with_objects = false;
+            rp.aovs = false;
+            if (p_.independent) rp.seed = independentSeed(rp.seed);
+            const RenderStats st2 = Renderer::create(rp)->render(scene, camera, without, progress);
+            st.seconds += st2.seconds;
+            st.rays += st2.rays;
+        }
+        out.obj = with.color;
+        out.noobj = without.color;
+        subtract(out.obj, out.noobj, out.diff);
+        out.object = with.object;
+        if (p_.coverage == COVERAGE_PRIMARY_RAYS)
+            out.mask = with.mask;
+        else
+            projectObjectCoverage(scene, camera, out.mask, p_.coverage_supersampling,
+                                  p_.coverage_occlusion);
+        return st;
+    }
+
+private:
+    Params p_;
+};
+
+/** Camera-space polygon clipped to z ≥ znear (Sutherland–Hodgman against one plane). */
+int clipNear(const Vec3d in[3], double znear, Vec3d out[4]) {
+    int n = 0;
+    for (int i = 0; i < 3; ++i) {
+        const Vec3d& a = in[i];
+        const Vec3d& b = in[(i + 1) % 3];
+        const bool ia = a[2] >= znear, ib = b[2] >= znear;
+        if (ia) out[n++] = a;
+        if (ia != ib) {
+            const double s = (znear - a[2]) / (b[2] - a[2]);
+            out[n++] = a + (b - a) * s;
+        }
+    }
+    return n;
+}
+
+/** Sets the bits of the sub-samples of @p bits (n×n a pixel) inside the 2-D triangle abc. */
+void rasterize(const Point2d& a, const Point2d& b, const Point2d& c, int n, Size sz,
+               std::vector<uint64_t>& bits) {
+    const double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (!(std::abs(area) > 0)) return;
+    const double sgn = area > 0 ? 1.0 : -1.0;
+    // Sub-sample g (global index along an axis) sits at (g + ½)/n − ½.
+    auto first = [n](double v) { return (int)std::ceil((v + 0.5) * n - 0.5); };
+    auto last = [n](double v) { return (int)std::floor((v + 0.5) * n - 0.5); };
+    const int gx0 = std::max(0, first(std::min({a.x, b.x, c.x})));
+    const int gx1 = std::min(sz.width * n - 1, last(std::max({a.x, b.x, c.x})));
+    const int gy0 = std::max(0, first(std::min({a.y, b.y, c.y})));
+    const int gy1 = std::min(sz.height * n - 1, last(std::max({a.y, b.y, c.y})));
+    auto edge = [sgn](const Point2d& p, const Point2d& q, double x, double y) {
+        return sgn * ((q.x - p.x) * (y - p.y) - (q.y - p.y) * (x - p.x));
+    };
+    for (int gy = gy0; gy <= gy1; ++gy) {
+        const double y = (gy + 0.5) / n - 0.5;
+        for (int gx = gx0; gx <= gx1; ++gx) {
+            const double x = (gx + 0.5) / n - 0.5;
+            // Closed triangle: shared edges are covered by both, and bits are OR-ed.
+            if (edge(a, b, x, y) >= 0 && edge(b, c, x, y) >= 0 && edge(c, a, x, y) >= 0)
+                bits[size_t(gy / n) * sz.width + gx / n] |= uint64_t(1) << ((gy % n) * n + gx % n);
+        }
+    }
+}
+
+int popcount64(uint64_t v) {
+    int c = 0;
+    for (; v; v &= v - 1)
+        ++c;
+    return c;
+}
+
+}  // namespace
+
+Ptr<DifferentialRenderer> DifferentialRenderer::create(const Params& params) {
+    return makePtr<DifferentialRendererImpl>(params);
+}
+
+void projectObjectCoverage(const RenderScene& scene_in, const Camera& camera, OutputArray mask,
+                           int supersampling, bool occlusion) {
+    const int n = supersampling;
+    if (n < 1 || n > 8)
+        CV_Error(Error::StsBadArg,
+                 cv::format("projectObjectCoverage: supersampling is %d, expected 1 … 8", n));
+    const Size sz = camera.image_size;
+    CV_Assert(sz.width > 0 && sz.height > 0 && "projectObjectCoverage: empty camera image size");
+    const auto* scene = dynamic_cast<const RenderSceneImpl*>(&scene_in);
+    CV_Assert(scene && "projectObjectCoverage: the scene must come from RenderScene::create");
+    std::vector<uint64_t> bits(size_t(sz.area()), 0);
+    const Matx33d& K = camera.K;
+    // Near plane: well in front of the centre, tiny against any room.
+    const double znear = 1e-4;
+    for (int g = 0; g < scene->numGeometries(); ++g) {
+        const auto& geom = scene->geometry(g);
+        if (geom.kind != GeometryKind::OBJECT) continue;
+        std::vector<Vec3d> cam_pts(geom.numVertices());
+        for (size_t v = 0; v < cam_pts.size(); ++v)
+            cam_pts[v] = camera.camFromWorld(Vec3d(geom.vertex((uint32_t)v)));
+        for (size_t tri = 0; tri < geom.numTriangles(); ++tri) {
+            const Vec3d in[3] = {cam_pts[geom.idx[3 * tri]], cam_pts[geom.idx[3 * tri + 1]],
+                                 cam_pts[geom.idx[3 * tri + 2]]};
+            Vec3d poly[4];
+            const int m = clipNear(in, znear, poly);
+            if (m < 3) continue;
+            Point2d q[4];
+            for (int i = 0; i < m; ++i) {
+                const Vec3d h = K * poly[i];
+                q[i] = Point2d(h[0] / h[2], h[1] / h[2]);
+            }
+            for (int i = 1; i + 1 < m; ++i)
+                rasterize(q[0], q[i], q[i + 1], n, sz, bits);
+        }
+    }
+    if (occlusion) {
+        // Keep a sub-sample only if its camera ray meets an object before anything else.
+        const PinholeCamera cam(camera);
+        for (int y = 0; y < sz.height; ++y)
+            for (int x = 0; x < sz.width; ++x) {
+                uint64_t& b = bits[size_t(y) * sz.width + x];
+                for (uint64_t rest = b; rest; rest &= rest - 1) {
+                    int k = 0;
+                    while (!((rest >> k) & 1u))
+                        ++k;
+                    const float sx = x - 0.5f + ((k % n) + 0.5f) / n;
+                    const float sy = y - 0.5f + ((k / n) + 0.5f) / n;
+                    Vec3f o, d;
+                    cam.generateRay(Point2f(sx, sy), o, d);
+                    SurfaceHit hit;
+                    if (scene->intersect(o, d, 0.f, std::numeric_limits<float>::infinity(), hit,
+                                         true) &&
+                        hit.kind != GeometryKind::OBJECT)
+                        b &= ~(uint64_t(1) << k);
+                }
+            }
+    }
+    mask.create(sz, CV_32FC1);
+    Mat M = mask.getMat();
+    const float inv = 1.f / float(n * n);
+    for (int y = 0; y < sz.height; ++y) {
+        float* row = M.ptr<float>(y);
+        for (int x = 0; x < sz.width; ++x)
+            row[x] = float(popcount64(bits[size_t(y) * sz.width + x])) * inv;
+    }
+}
+
+void compositeDifferential(InputArray background_in, InputArray obj_in, InputArray diff_in,
+                           InputArray mask_in, OutputArray linear, const CompositeParams& params) {
+    const Mat bg = background_in.getMat(), obj = obj_in.getMat(), diff = diff_in.getMat(),
+              M = mask_in.getMat();
+    if (bg.empty() || bg.channels() != 3)
+        CV_Error(Error::StsBadArg,
+                 "compositeDifferential: the background must be a 3-channel "
+                 "(BGR) image");
+    auto sizeText = [](const Mat& m) { return cv::format("%dx%d", m.cols, m.rows); };
+    for (const auto& pr : {std::make_pair("obj", &obj), std::make_pair("diff", &diff)}) {
+        const Mat& m = *pr.second;
+        if (m.type() != CV_32FC3 || m.size() != bg.size())
+            CV_Error(Error::StsBadArg,
+                     cv::format("compositeDifferential: %s is %s of type %d, expected CV_32FC3 "
+                                "of the background's size %s",
+                                pr.first, sizeText(m).c_str(), m.type(), sizeText(bg).c_str()));
+    }
+    if (M.type() != CV_32FC1 || M.size() != bg.size())
+        CV_Error(Error::StsBadArg,
+                 cv::format("compositeDifferential: mask is %s of type %d, expected CV_32FC1 of "
+                            "the background's size %s",
+                            sizeText(M).c_str(), M.type(), sizeText(bg).c_str()));
+    Mat lin;
+    linearize(bg, lin, params.response);
+    linear.create(bg.size(), CV_32FC3);
+    Mat out = linear.getMat();
+    const float alpha = params.alpha;
+    for (int y = 0; y < bg.rows; ++y) {
+        const Vec3f* I = lin.ptr<Vec3f>(y);
+        const Vec3f* O = obj.ptr<Vec3f>(y);
+        const Vec3f* D = diff.ptr<Vec3f>(y);
+        const float* m = M.ptr<float>(y);
+        Vec3f* R = out.ptr<Vec3f>(y);
+        for (int x = 0; x < bg.cols; ++x) {
+            const float w = std::min(1.f, std::max(0.f, m[x]));
+            for (int c = 0; c < 3; ++c) {
+                const float back = std::max(0.f, I[x][c] + alpha * D[x][c]);
+                // Written so that w = 0 gives `back` exactly (and w = 1 gives obj exactly).
+                R[x][c] = w == 0.f ? back : (w == 1.f ? O[x][c] : w * O[x][c] + (1.f - w) * back);
+            }
+        }
+    }
+}
+
+void encodeComposite(InputArray linear, OutputArray encoded, Response response, int ddepth) {
+    if (ddepth == CV_8U) {
+        encode(linear, encoded, response, CV_8U);
+        return;
+    }
+    if (ddepth != CV_16U)
+        CV_Error(Error::StsBadArg, "encodeComposite: ddepth must be CV_8U or CV_16U");
+    Mat f;
+    encode(linear, f, response, CV_32F);
+    f.convertTo(encoded, CV_16U, 65535.0);
+}
+
+void writeDifferentialExr(const std::string& path, const DifferentialImages& im,
+                          InputArray composite_in,
+                          const std::map<std::string, std::string>& attributes) {
+    if (im.obj.type() != CV_32FC3 || im.noobj.type() != CV_32FC3 || im.diff.type() != CV_32FC3 ||
+        im.mask.type() != CV_32FC1)
+        CV_Error(Error::StsBadArg,
+                 "writeDifferentialExr: obj, noobj, diff must be CV_32FC3 and "
+                 "mask CV_32FC1");
+    Mat comp = composite_in.empty() ? im.obj : composite_in.getMat();
+    CV_Assert(comp.type() == CV_32FC3 && comp.size() == im.obj.size() &&
+              "writeDifferentialExr: the composite must be CV_32FC3 of the layers' size");
+    std::vector<std::pair<std::string, Mat>> ch;
+    auto addRgb = [&ch](const std::string& prefix, const Mat& bgr) {
+        Mat c[3];
+        split(bgr, c);
+        ch.emplace_back(prefix + "R", c[2]);
+        ch.emplace_back(prefix + "G", c[1]);
+        ch.emplace_back(prefix + "B", c[0]);
+    };
+    addRgb("", comp);
+    addRgb("obj.", im.obj);
+    addRgb("noobj.", im.noobj);
+    addRgb("diff.", im.diff);
+    ch.emplace_back("mask", im.mask);
+    if (!im.object.empty()) ch.emplace_back("object", im.object);
+    writeExrChannels(path, ch, attributes);
+}
+
+DifferentialImages readDifferentialExr(const std::string& path, Mat* composite,
+                                       std::map<std::string, std::string>* attributes) {
+    std::map<std::string, Mat> ch = readExrChannels(path, attributes);
+    std::string missing;
+    for (const char* name : {"obj.R", "obj.G", "obj.B", "diff.R", "diff.G", "diff.B", "mask"})
+        if (!ch.count(name)) missing += std::string(missing.empty() ? "" : ", ") + name;
+    if (!missing.empty())
+        CV_Error(Error::StsBadArg, "'" + path + "' lacks the differential-rendering channels " +
+                                       missing +
+                                       " (expected obj.R/G/B, diff.R/G/B and mask, "
+                                       "as `vbme render --differential` writes them)");
+    auto merged = [&ch](const std::string& prefix) {
+        Mat out;
+        merge(std::vector<Mat>{ch[prefix + "B"], ch[prefix + "G"], ch[prefix + "R"]}, out);
+        return out;
+    };
+    DifferentialImages im;
+    im.obj = merged("obj.");
+    im.diff = merged("diff.");
+    if (ch.count("noobj.R") && ch.count("noobj.G") && ch.count("noobj.B"))
+        im.noobj = merged("noobj.");
+    else
+        subtract(im.obj, im.diff, im.noobj);
+    im.mask = ch["mask"];
+    if (ch.count("object")) im.object = ch["object"];
+    if (composite) {
+        if (ch.count("R") && ch.count("G") && ch.count("B"))
+            *composite = merged("");
+        else
+            composite->release();
+    }
+    return im;
+}
+
+}  // namespace vbme
+}  // namespace cv
