@@ -9,7 +9,7 @@
 // from a 256-spp one-pass differential render (seed 1000); RMSE is over the whole image, in
 // linear radiance.
 //
-// Reads $VBME_DATA/meshes/stanford-bunny.obj (VBME_DATA defaults to /work/shared/data).
+// Reads $VBME_DATA/meshes/stanford-bunny.obj (VBME_DATA defaults to ../shared/data beside the source tree).
 //
 //   vbme_perf_render_differential --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
@@ -44,7 +44,7 @@ struct Bench {
 
     Bench() {
         const char* env = std::getenv("VBME_DATA");
-        const std::string data = env ? env : "/work/shared/data";
+        const std::string data = env ? env : VBME_DEFAULT_DATA;
         const std::string bunny = data + "/meshes/stanford-bunny.obj";
         if (!std::filesystem::exists(bunny)) {
             error = "missing " + bunny + " (set VBME_DATA)";

@@ -3,7 +3,7 @@
 // open box room (floor, back and left walls) with the Stanford bunny, diffuse materials, one
 // distant light with a 5° half-angle and a constant ambient environment.
 //
-// Reads $VBME_DATA/meshes/stanford-bunny.obj (VBME_DATA defaults to ../shared/data).
+// Reads $VBME_DATA/meshes/stanford-bunny.obj (VBME_DATA defaults to ../shared/data beside the source tree).
 // The peer has no timer of its own: it is timed at N and 2N samples per pixel and the
 // difference is taken, so that loading and BVH building cancel. It writes 8-bit linear values
 // clamped to [0,1]; images are compared in those units.
@@ -50,7 +50,7 @@ struct Bench {
 
     Bench() {
         const char* env = std::getenv("VBME_DATA");
-        const std::string data = env ? env : "../shared/data";
+        const std::string data = env ? env : VBME_DEFAULT_DATA;
         const std::string bunny = data + "/meshes/stanford-bunny.obj";
         if (!std::filesystem::exists(bunny)) {
             error = "missing " + bunny + " (set VBME_DATA)";

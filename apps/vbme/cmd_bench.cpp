@@ -1,10 +1,19 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // vbme bench: whole-pipeline figures on input made in code (per-stage figures are in perf/).
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/vbme/track.hpp>
+#if __has_include(<opencv2/vbme/render.hpp>)
+#include <opencv2/vbme/render.hpp>
+#define VBME_BENCH_RENDER 1
+#endif
 
 #include "command.hpp"
 
@@ -14,7 +23,7 @@ namespace {
 
 struct BenchOptions {
     std::string what = "track";
-    int width = 640, height = 480, frames = 300, threads = 1;
+    int width = 640, height = 480, frames = 300, threads = 1, spp = 32;
 };
 
 // Tracking throughput: frames made in memory first, so that only update() is timed.
@@ -26,7 +35,8 @@ void benchTrack(const BenchOptions& o) {
     cp.frames = 32;  // periodic: frame 31 leads back to frame 0
     const SyntheticBallClip clip(cp);
     std::vector<Mat> frames;
-    for (int i = 0; i < cp.frames; ++i) frames.push_back(clip.frame(i));
+    for (int i = 0; i < cp.frames; ++i)
+        frames.push_back(clip.frame(i));
     Mat first_mask, mask;
     diskMask(cp.size, clip.truth(0), first_mask);
     for (bool window : {true, false}) {
@@ -45,25 +55,127 @@ void benchTrack(const BenchOptions& o) {
         t = ObjectTracker::create(p);
         t->init(frames[0], first_mask);
         const auto t0 = std::chrono::steady_clock::now();
-        for (int i = 0; i < o.frames; ++i) t->update(frames[i % cp.frames], mask);
-        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        std::printf("track %dx%d %-12s %8.1f frames/s  (%d frames in %.2f s, %d thread%s, mean IoU %.3f)\n", o.width,
-                    o.height, window ? "window" : "whole-frame", o.frames / s, o.frames, s, o.threads,
-                    o.threads == 1 ? "" : "s", iou);
+        for (int i = 0; i < o.frames; ++i)
+            t->update(frames[i % cp.frames], mask);
+        const double s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        std::printf(
+            "track %dx%d %-12s %8.1f frames/s  (%d frames in %.2f s, %d thread%s, mean IoU %.3f)\n",
+            o.width, o.height, window ? "window" : "whole-frame", o.frames / s, o.frames, s,
+            o.threads, o.threads == 1 ? "" : "s", iou);
     }
     std::printf("thesis (2013, 2.8 GHz dual core): ~6 frames/s\n");
 }
 
+#ifdef VBME_BENCH_RENDER
+// Differential rendering on the Stanford bunny in a closed box under a ceiling light: one
+// render, the one-pass differential render and two separate renders, at equal samples.
+void benchDifferential(const BenchOptions& o) {
+    using namespace cv;
+    using namespace cv::vbme;
+    const char* env = std::getenv("VBME_DATA");
+    const std::string bunny =
+        std::string(env ? env : "../shared/data") + "/meshes/stanford-bunny.obj";
+    if (!std::filesystem::exists(bunny))
+        CV_Error(Error::StsError,
+                 "'" + bunny + "' not found: set VBME_DATA to the folder holding meshes/");
+    double ymin = 1e30;  // the bunny is y-up: its lowest point goes on the floor
+    {
+        std::ifstream in(bunny);
+        std::string line;
+        while (std::getline(in, line))
+            if (line.rfind("v ", 0) == 0) {
+                std::istringstream ss(line.substr(2));
+                double x, y;
+                ss >> x >> y;
+                ymin = std::min(ymin, y);
+            }
+    }
+    Scene scene;
+    scene.image_size = Size(o.width, o.height);
+    scene.has_room = true;
+    scene.room.min = Vec3d(-1.5, -1.5, 0);
+    scene.room.max = Vec3d(1.5, 1.5, 2.5);
+    Light light;
+    light.type = Light::POLYGON;  // wound counter-clockwise seen from below: lights the room
+    light.corners = {Vec3d(-0.4, 0.4, 2.5), Vec3d(0.4, 0.4, 2.5), Vec3d(0.4, -0.4, 2.5),
+                     Vec3d(-0.4, -0.4, 2.5)};
+    light.radiance = Vec3d(10, 10, 10);
+    scene.lights = {light};
+    SceneObject obj;
+    obj.mesh = bunny;
+    obj.world_from_object =
+        Matx44d(5, 0, 0, 0, 0, 0, -5, 0, 0, 5, 0, -5 * ymin, 0, 0, 0, 1);  // ×5, z up
+    obj.has_material = true;
+    obj.material.albedo = Vec3d(0.8, 0.7, 0.6);
+    scene.objects = {obj};
+    // Camera at (0.9, −1.4, 1.2) looking at (0, 0.1, 0.35), 50° vertical field of view.
+    const Vec3d eye(0.9, -1.4, 1.2), z = normalize(Vec3d(0, 0.1, 0.35) - eye);
+    const Vec3d x = normalize(z.cross(Vec3d(0, 0, 1))), y = z.cross(x);
+    scene.camera =
+        Camera::fromFocal(0.5 * o.height / std::tan(25.0 * CV_PI / 180.0), scene.image_size);
+    scene.camera.R = Matx33d(x[0], x[1], x[2], y[0], y[1], y[2], z[0], z[1], z[2]);
+    scene.camera.t = -(scene.camera.R * eye);
+    const Ptr<RenderScene> rs = RenderScene::create(scene);
+
+    Renderer::Params rp;
+    rp.spp = o.spp;
+    rp.max_depth = 8;
+    RenderImages single;
+    const double t_single = Renderer::create(rp)->render(*rs, scene.camera, single).seconds;
+    double t[2];
+    DifferentialImages im[2];
+    for (int m = 0; m < 2; ++m) {
+        DifferentialRenderer::Params dp;
+        dp.render = rp;
+        dp.method = m == 0 ? DifferentialRenderer::ONE_PASS : DifferentialRenderer::TWO_PASS;
+        t[m] = DifferentialRenderer::create(dp)->render(*rs, scene.camera, im[m]).seconds;
+    }
+    const double same = norm(im[0].diff, im[1].diff, NORM_INF);
+    std::printf("differential %dx%d, %d spp, max depth 8, bunny in a box (%d threads):\n", o.width,
+                o.height, o.spp, getNumThreads());
+    std::printf("  one render            %7.2f s  1.00x\n", t_single);
+    std::printf("  one-pass differential %7.2f s  %.2fx\n", t[0], t[0] / t_single);
+    std::printf("  two separate renders  %7.2f s  %.2fx\n", t[1], t[1] / t_single);
+    std::printf("  largest |diff| difference between the two: %g\n", same);
+}
+#endif
+
 void setupBench(CLI::App& app) {
     auto o = std::make_shared<BenchOptions>();
-    app.add_option("what", o->what, "What to measure")->check(CLI::IsMember({"track"}))->capture_default_str();
-    app.add_option("--width", o->width, "Frame width")->check(CLI::Range(64, 8192))->capture_default_str();
-    app.add_option("--height", o->height, "Frame height")->check(CLI::Range(64, 8192))->capture_default_str();
-    app.add_option("--frames", o->frames, "Frames to process")->check(CLI::Range(1, 1000000))->capture_default_str();
-    app.add_option("--threads", o->threads, "OpenCV threads")->check(CLI::Range(1, 256))->capture_default_str();
+    app.add_option("what", o->what,
+                   "What to measure: track (tracking throughput) or differential (one-pass "
+                   "differential rendering vs one and two renders; reads "
+                   "$VBME_DATA/meshes/stanford-bunny.obj)")
+        ->check(CLI::IsMember({"track", "differential"}))
+        ->capture_default_str();
+    app.add_option("--spp", o->spp, "Samples per pixel (differential)")
+        ->check(CLI::Range(1, 100000))
+        ->capture_default_str();
+    app.add_option("--width", o->width, "Frame width")
+        ->check(CLI::Range(64, 8192))
+        ->capture_default_str();
+    app.add_option("--height", o->height, "Frame height")
+        ->check(CLI::Range(64, 8192))
+        ->capture_default_str();
+    app.add_option("--frames", o->frames, "Frames to process")
+        ->check(CLI::Range(1, 1000000))
+        ->capture_default_str();
+    app.add_option("--threads", o->threads, "OpenCV threads")
+        ->check(CLI::Range(1, 256))
+        ->capture_default_str();
     app.callback([o] {
         cv::setNumThreads(o->threads);
         if (o->what == "track") benchTrack(*o);
+#ifdef VBME_BENCH_RENDER
+        if (o->what == "differential") {
+            cv::setNumThreads(-1);
+            benchDifferential(*o);
+        }
+#else
+        if (o->what == "differential")
+            CV_Error(cv::Error::StsError, "vbme was built without vbme_render");
+#endif
     });
 }
 
