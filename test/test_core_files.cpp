@@ -2,6 +2,7 @@
 // Scene, material and camera-path files: FileStorage round trips and errors that name the field.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -287,4 +288,24 @@ TEST(CoreFileIO, ImreadCheckedSaysWhatIsWrong) {
     } catch (const cv::Exception& e) {
         EXPECT_NE(e.err.find("does not exist"), std::string::npos);
     }
+}
+
+TEST(CoreScene, WarnsAboutALightFacingOutOfTheRoom) {
+    Scene s;
+    s.has_room = true;
+    s.room.min = Vec3d(-2, -1, 0);
+    s.room.max = Vec3d(2, 4, 2.5);
+    Light l;
+    l.type = Light::POLYGON;
+    l.radiance = Vec3d(5, 5, 5);
+    // On the ceiling, counter-clockwise seen from below: lights the room.
+    l.corners = {Vec3d(-0.5, 2, 2.5), Vec3d(0.5, 2, 2.5), Vec3d(0.5, 1, 2.5), Vec3d(-0.5, 1, 2.5)};
+    s.lights = {l};
+    EXPECT_TRUE(s.warnings().empty());
+    std::reverse(s.lights[0].corners.begin(), s.lights[0].corners.end());
+    const auto w = s.warnings();
+    ASSERT_EQ(w.size(), 1u);
+    EXPECT_NE(w[0].find("lights[0]"), std::string::npos) << w[0];
+    s.has_room = false;  // without a room there is no inside to face
+    EXPECT_TRUE(s.warnings().empty());
 }

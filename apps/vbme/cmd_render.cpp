@@ -102,6 +102,8 @@ void runRender(const RenderOptions& o) {
     if (!o.composite.empty()) checkOverwrite(o.composite, o.common.force);
 
     const Scene scene = Scene::read(o.scene);
+    for (const std::string& w : scene.warnings())
+        std::fprintf(stderr, "vbme: warning: %s: %s\n", o.scene.c_str(), w.c_str());
     Camera camera = scene.camera;
     if (!o.cameras.empty()) {
         const CameraPath path = CameraPath::read(o.cameras);

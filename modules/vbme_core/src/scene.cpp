@@ -438,6 +438,26 @@ static Scene readSceneImpl(const FileStorage& fs, const std::string& base) {
     return s;
 }
 
+std::vector<std::string> Scene::warnings() const {
+    std::vector<std::string> w;
+    if (!has_room) return w;
+    const Vec3d centre = (room.min + room.max) * 0.5;
+    for (size_t i = 0; i < lights.size(); ++i) {
+        const Light& l = lights[i];
+        if (l.type != Light::POLYGON || l.corners.empty()) continue;
+        Vec3d c(0, 0, 0);
+        for (const auto& p : l.corners)
+            c += p;
+        c *= 1.0 / l.corners.size();
+        if (l.polygonNormal().dot(centre - c) < 0)
+            w.push_back(format(
+                "lights[%d]: the polygon faces out of the room (its corners run clockwise "
+                "seen from inside), so it lights nothing in the room; reverse the corner order",
+                (int)i));
+    }
+    return w;
+}
+
 Scene Scene::read(const std::string& path) {
     FileStorage fs;
     try {

@@ -135,6 +135,10 @@ struct CV_EXPORTS Scene {
 
     /** @brief Reads a scene file. Throws cv::Exception naming the file and field at fault. */
     static Scene read(const std::string& path);
+    /** @brief Things that are valid but probably not what the user meant, one sentence each
+    (e.g. a polygon light on the room box that faces out of the room, so it lights nothing
+    inside). Empty when nothing looks wrong. */
+    std::vector<std::string> warnings() const;
     /** @brief Writes the scene to @p path (YAML or JSON by extension), under a temporary
     name renamed when complete. */
     void write(const std::string& path) const;
