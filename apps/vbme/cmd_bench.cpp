@@ -161,7 +161,8 @@ void setupBench(CLI::App& app) {
     app.add_option("--frames", o->frames, "Frames to process")
         ->check(CLI::Range(1, 1000000))
         ->capture_default_str();
-    app.add_option("--threads", o->threads, "OpenCV threads")
+    app.add_option("--threads", o->threads,
+                   "OpenCV threads for track (differential renders on all cores)")
         ->check(CLI::Range(1, 256))
         ->capture_default_str();
     app.callback([o] {
