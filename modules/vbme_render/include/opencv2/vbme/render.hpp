@@ -27,5 +27,8 @@ doc/vbme_render.md and doc/vbme_render_differential.md.
 #include "opencv2/vbme/render/sampler.hpp"
 #include "opencv2/vbme/render/scene.hpp"
 #include "opencv2/vbme/render/texture.hpp"
+#include "opencv2/vbme/render/room_texture.hpp"
+#include "opencv2/vbme/render/albedo.hpp"
+#include "opencv2/vbme/render/light_estimation.hpp"
 
 #endif
