@@ -1,0 +1,144 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// vbme insert: synthetic objects in a hand-held video of a room, lit by the room, composited
+// by differential rendering (thesis chapter 5). A thin wrapper around cv::vbme::runInsertion.
+#include <cstdio>
+#include <regex>
+
+#include <opencv2/vbme/pipeline/insertion.hpp>
+
+#include "command.hpp"
+
+namespace vbme_app {
+
+namespace {
+
+struct InsertOptions {
+    cv::vbme::InsertionParams p;
+    std::string place, frames;
+    CommonOptions common;
+};
+
+void parseOptions(InsertOptions& o) {
+    static const std::string num = R"(\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*)";
+    if (!o.place.empty()) {
+        std::smatch m;
+        if (!std::regex_match(o.place, m, std::regex(num + "," + num)))
+            throw CLI::ValidationError(
+                "--place", "expected a frame-0 pixel as u,v (e.g. 320,400), got '" + o.place + "'");
+        o.p.has_place = true;
+        o.p.place = cv::Point2d(std::stod(m[1]), std::stod(m[2]));
+    }
+    if (!o.frames.empty()) {
+        std::smatch m;
+        if (!std::regex_match(o.frames, m, std::regex(R"((\d+):(\d*))")))
+            throw CLI::ValidationError(
+                "--frames", "expected A:B (frames A to B-1, from 0) or A: (to the end), got '" +
+                                o.frames + "'");
+        o.p.first = std::stoi(m[1]);
+        o.p.end = m[2].length() ? std::stoi(m[2]) : -1;
+        if (o.p.end >= 0 && o.p.end <= o.p.first)
+            throw CLI::ValidationError("--frames", "A:B needs A < B, got '" + o.frames + "'");
+    }
+}
+
+void runInsert(InsertOptions& o) {
+    using namespace cv::vbme;
+    o.p.force = o.common.force;
+    o.p.quiet = o.common.quiet;
+    o.p.command_line = commandLine();
+    const InsertionReport r = runInsertion(o.p);
+    std::printf("frames %d:%d of %d: %d rendered, %d already done (%.2f s/frame at %d spp)\n",
+                o.p.first, o.p.end < 0 ? r.frames_total : o.p.end, r.frames_total,
+                r.frames_rendered, r.frames_skipped, r.seconds_per_frame, r.spp);
+    std::printf(
+        "stages (s): tracking %.1f, textures %.1f, albedo %.1f, lights %.1f, render %.1f, "
+        "encode %.1f%s\n",
+        r.seconds.at("tracking"), r.seconds.at("textures"), r.seconds.at("albedo"),
+        r.seconds.at("lights"), r.seconds.at("render"), r.seconds.at("encode"),
+        r.prepared_reused ? " (prepared scene reused)" : "");
+    for (size_t i = 0; i < r.lights.scale.size(); ++i)
+        std::printf("light %zu scaled by (%.4g, %.4g, %.4g)\n", i, r.lights.scale[i][0],
+                    r.lights.scale[i][1], r.lights.scale[i][2]);
+    if (r.video_written) {
+        std::printf("written: %s (report %s/report.yml)\n", o.p.out.c_str(), r.work.c_str());
+    } else {
+        std::string list;
+        for (size_t i = 0; i < r.missing.size() && i < 20; ++i)
+            list += (i ? " " : "") + std::to_string(r.missing[i]);
+        if (r.missing.size() > 20) list += " …";
+        std::printf(
+            "%d of %d frames still missing (%s): %s not written yet; run the remaining "
+            "--frames (same --work) to finish\n",
+            (int)r.missing.size(), r.frames_total, list.c_str(), o.p.out.c_str());
+    }
+}
+
+void setupInsert(CLI::App& app) {
+    auto o = std::make_shared<InsertOptions>();
+    app.footer(
+        "Inserts the scene's objects: into a hand-held video of a room (thesis chapter 5).\n"
+        "Stages: camera path (--cameras, or camera tracking with COLMAP into <work>/tracking),\n"
+        "room textures from the video (every k-th frame, at most ~24 frames, linearised with\n"
+        "the camera response; unseen texels inpainted), albedo, light estimation, then per\n"
+        "frame a differential render (shared samples, fixed seed) composited onto the input\n"
+        "frame. Work folder (default <out>_work): prepared_scene.yml (reused when made from\n"
+        "the same inputs and options), frames/frame_%05d.png (frames already there are skipped:\n"
+        "an interrupted run resumes), exr/ (--keep-exr), report.yml. The output video is\n"
+        "written, with the input's audio, once every frame exists, so several machines can\n"
+        "split one video with --frames A:B over a shared --work. See doc/vbme_pipeline_insert.md.");
+    app.add_option("--video", o->p.video, "Input video file, image folder or %05d pattern")
+        ->required();
+    app.add_option("--scene", o->p.scene,
+                   "Frame-0 scene file (vbme calibrate's output with objects:)")
+        ->required();
+    app.add_option("--cameras", o->p.cameras,
+                   "Camera-path YAML (vbme track-camera); without it the camera is tracked");
+    app.add_option("--out", o->p.out, "Output video (.mp4, .mkv, .avi) or %05d image pattern")
+        ->required();
+    app.add_option("--place", o->place,
+                   "u,v: put objects[0]'s bounding-box bottom on the floor where this frame-0 "
+                   "pixel looks");
+    app.add_option("--spp", o->p.spp, "Samples per pixel (default: the scene's render.spp)")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--frames", o->frames,
+                   "A:B: render only frames A … B-1 (from 0; 'A:' to the end), e.g. one "
+                   "machine's share of a render farm");
+    app.add_option("--work", o->p.work, "Work folder (default: <out without extension>_work)");
+    app.add_flag("--keep-exr", o->p.keep_exr,
+                 "Keep per-frame multi-layer OpenEXRs (R,G,B composite, obj, noobj, diff, mask) "
+                 "in <work>/exr");
+    app.add_option("--texture-mode", o->p.texture_mode,
+                   "accumulate: room textures from frames over the whole video; per-frame: "
+                   "the thesis's frame-0 textures")
+        ->check(CLI::IsMember({"accumulate", "per-frame"}))
+        ->capture_default_str();
+    app.add_option("--albedo", o->p.albedo,
+                   "irradiance: texture / irradiance of the room's lights; retinex: Retinex "
+                   "shading removal")
+        ->check(CLI::IsMember({"irradiance", "retinex"}))
+        ->capture_default_str();
+    app.add_option("--lights", o->p.lights,
+                   "Light estimation: nnls, hill-climb (thesis Eq. 5.1) or none (keep the "
+                   "scene's powers)")
+        ->check(CLI::IsMember({"nnls", "hill-climb", "none"}))
+        ->capture_default_str();
+    app.add_flag("--per-frame-gain", o->p.per_frame_gain,
+                 "Light estimation also fits one exposure gain per frame (auto-exposure)");
+    app.add_option("--threads", o->p.threads, "Worker threads (default: all cores)")
+        ->check(CLI::NonNegativeNumber);
+    addCommonOptions(app, o->common);
+    app.callback([o] {
+        parseOptions(*o);
+        applyCommonOptions(o->common);
+        runInsert(*o);
+    });
+}
+
+}  // namespace
+
+VBME_REGISTER_COMMAND("insert",
+                      "Insert synthetic objects into a hand-held video of a room (differential "
+                      "rendering)",
+                      setupInsert);
+
+}  // namespace vbme_app

@@ -1,0 +1,303 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// runInsertion / placeOnFloor: resume, split runs, prepared-scene reuse, placement, and the
+// composite leaving the footage untouched where the object has no influence.
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/vbme/calib/synthetic_sequence.hpp>
+#include <opencv2/vbme/pipeline/insertion.hpp>
+#include <opencv2/vbme/render.hpp>
+
+#include "vbme_test_util.hpp"
+
+namespace {
+
+using namespace cv;
+using namespace cv::vbme;
+namespace fs = std::filesystem;
+
+// An axis-aligned cube of side s whose bounding-box bottom centre is the origin.
+void writeCubeObj(const std::string& path, double s) {
+    std::ofstream f(path);
+    const double h = s / 2;
+    for (int i = 0; i < 8; ++i)
+        f << "v " << (i & 1 ? h : -h) << " " << (i & 2 ? h : -h) << " " << (i & 4 ? s : 0.0)
+          << "\n";
+    // faces (1-based), outward winding
+    const int q[6][4] = {{1, 3, 4, 2}, {5, 6, 8, 7}, {1, 2, 6, 5},
+                         {3, 7, 8, 4}, {1, 5, 7, 3}, {2, 4, 8, 6}};
+    for (const auto& r : q)
+        f << "f " << r[0] << " " << r[1] << " " << r[2] << "\nf " << r[0] << " " << r[2] << " "
+          << r[3] << "\n";
+}
+
+// A small synthetic input: textured room lit by a ceiling panel, a cube on the floor, a
+// hand-held path, the frames rendered without the cube as a PNG folder.
+struct InsertInput {
+    std::string scene, cameras, video, mesh;
+    Scene sc;
+    std::vector<Camera> cams;
+};
+
+InsertInput makeInput(const vbme_test::ScratchDir& dir, Size size = Size(96, 72), int frames = 4,
+                      int spp = 4) {
+    InsertInput in;
+    Scene s = syntheticRoomScene(size, 260.0 * size.width / 320.0, 0.35, 1.5);
+    const auto tex = makeRoomTextures(3, 96);
+    for (const auto& kv : tex) {
+        const std::string f = dir / ("tex_" + kv.first + ".png");
+        imwrite(f, kv.second);
+        s.room.textures[kv.first] = f;
+    }
+    Light l;
+    l.type = Light::POLYGON;
+    const double z = s.room.max[2];
+    l.corners = {Vec3d(-0.5, 1.5, z), Vec3d(0.5, 1.5, z), Vec3d(0.5, 2.5, z), Vec3d(-0.5, 2.5, z)};
+    if (l.polygonNormal()[2] > 0) std::reverse(l.corners.begin(), l.corners.end());
+    l.radiance = Vec3d(12, 12, 12);
+    s.lights = {l};
+    in.mesh = dir / "cube.obj";
+    writeCubeObj(in.mesh, 0.3);
+    SceneObject o;
+    o.mesh = in.mesh;
+    o.world_from_object = Matx44d(1, 0, 0, 0.1, 0, 1, 0, 2.0, 0, 0, 1, 0, 0, 0, 0, 1);
+    o.has_material = true;
+    o.material.albedo = Vec3d(0.7, 0.2, 0.1);
+    s.render.spp = spp;
+    s.render.max_depth = 3;
+    in.cams = handheldCameraPath(s.camera, frames, 0.2, 0.003, 0.2, 5);
+    // the input video: the room without the object
+    fs::create_directories(dir / "video");
+    Ptr<RenderScene> rs = RenderScene::create(s);
+    Renderer::Params rp = Renderer::Params::fromScene(s.render);
+    rp.with_objects = false;
+    Ptr<Renderer> r = Renderer::create(rp);
+    for (int i = 0; i < frames; ++i) {
+        Camera c = in.cams[i];
+        c.image_size = size;
+        RenderImages img;
+        r->render(*rs, c, img);
+        Mat enc;
+        encode(img.color, enc, Response::SRGB, CV_8U);
+        imwrite(dir / format("video/%05d.png", i), enc);
+    }
+    in.video = dir / "video";
+    s.objects = {o};
+    in.scene = dir / "scene.yml";
+    s.write(in.scene);
+    in.sc = Scene::read(in.scene);
+    CameraPath path;
+    path.K = s.camera.K;
+    path.image_size = size;
+    for (int i = 0; i < frames; ++i) {
+        CameraPath::Frame f;
+        f.index = i;
+        f.R = in.cams[i].R;
+        f.t = in.cams[i].t;
+        path.frames.push_back(f);
+    }
+    in.cameras = dir / "cameras.yml";
+    path.write(in.cameras);
+    return in;
+}
+
+InsertionParams baseParams(const InsertInput& in, const std::string& out, const std::string& work) {
+    InsertionParams p;
+    p.video = in.video;
+    p.scene = in.scene;
+    p.cameras = in.cameras;
+    p.out = out;
+    p.work = work;
+    p.quiet = true;
+    return p;
+}
+
+std::vector<Mat> readVideo(const std::string& path) {
+    std::vector<Mat> v;
+    VideoReader r(path);
+    Mat f;
+    while (r.read(f))
+        v.push_back(f.clone());
+    return v;
+}
+
+bool identical(const Mat& a, const Mat& b) {
+    if (a.size() != b.size() || a.type() != b.type()) return false;
+    return norm(a, b, NORM_INF) == 0;
+}
+
+class PipelineInsertion : public ::testing::Test {
+protected:
+    void SetUp() override { Progress::setEnabled(false); }
+    void TearDown() override { Progress::setEnabled(true); }
+};
+
+// One run over all frames; a second work folder done as a split (0:2, then 2:N) with a frame
+// deleted and a stray temporary file (a killed run) in between; both must give the same
+// frames bit for bit, finished frames must not be rendered again, and a prepared scene from
+// other options must be refused.
+TEST_F(PipelineInsertion, ResumeAndSplitGiveIdenticalFrames) {
+    vbme_test::ScratchDir dir;
+    const int N = 4;
+    const InsertInput in = makeInput(dir, Size(96, 72), N, 4);
+
+    InsertionParams pa = baseParams(in, dir / "a.mkv", dir / "work_a");
+    const InsertionReport ra = runInsertion(pa);
+    EXPECT_EQ(ra.frames_total, N);
+    EXPECT_EQ(ra.frames_rendered, N);
+    EXPECT_EQ(ra.frames_skipped, 0);
+    EXPECT_TRUE(ra.video_written);
+    EXPECT_FALSE(ra.prepared_reused);
+    ASSERT_TRUE(fs::exists(dir / "a.mkv"));
+    EXPECT_TRUE(fs::exists(dir / "work_a/report.yml"));
+    EXPECT_TRUE(fs::exists(dir / "work_a/prepared_scene.yml"));
+    ASSERT_EQ(ra.lights.scale.size(), 1u);
+
+    // split: first share
+    InsertionParams pb = baseParams(in, dir / "b.mkv", dir / "work_b");
+    pb.first = 0;
+    pb.end = 2;
+    pb.threads = 1;  // another machine: another thread count, the same frames
+    const InsertionReport rb1 = runInsertion(pb);
+    EXPECT_EQ(rb1.frames_rendered, 2);
+    EXPECT_FALSE(rb1.video_written);
+    EXPECT_EQ(rb1.missing, std::vector<int>({2, 3}));
+    EXPECT_FALSE(fs::exists(dir / "b.mkv"));
+    // a killed run: frame 1 gone, a half-written temporary left behind
+    fs::remove(dir / "work_b/frames/frame_00001.png");
+    {
+        std::ofstream junk(dir / "work_b/frames/frame_00001.partial-1234.png");
+        junk << "truncated";
+    }
+    // second share (2:) plus the resume of frame 1: everything from 1 on
+    pb.first = 1;
+    pb.end = -1;
+    const InsertionReport rb2 = runInsertion(pb);
+    EXPECT_TRUE(rb2.prepared_reused);
+    EXPECT_EQ(rb2.frames_rendered, 3);  // 1, 2, 3
+    EXPECT_EQ(rb2.frames_skipped, 0);
+    EXPECT_TRUE(rb2.video_written);
+    // a rerun renders nothing
+    pb.first = 0;
+    pb.force = true;  // --out exists now
+    const InsertionReport rb3 = runInsertion(pb);
+    EXPECT_EQ(rb3.frames_rendered, 0);
+    EXPECT_EQ(rb3.frames_skipped, N);
+
+    for (int i = 0; i < N; ++i) {
+        const Mat fa = imread(dir / format("work_a/frames/frame_%05d.png", i), IMREAD_UNCHANGED);
+        const Mat fb = imread(dir / format("work_b/frames/frame_%05d.png", i), IMREAD_UNCHANGED);
+        EXPECT_TRUE(identical(fa, fb)) << "frame " << i;
+    }
+    const std::vector<Mat> va = readVideo(dir / "a.mkv"), vb = readVideo(dir / "b.mkv");
+    ASSERT_EQ(va.size(), (size_t)N);
+    ASSERT_EQ(vb.size(), (size_t)N);
+    for (int i = 0; i < N; ++i)
+        EXPECT_TRUE(identical(va[i], vb[i])) << "video frame " << i;
+
+    // a prepared scene made with other options is refused, not silently reused
+    InsertionParams pc = baseParams(in, dir / "c.mkv", dir / "work_a");
+    pc.albedo = "retinex";
+    try {
+        runInsertion(pc);
+        ADD_FAILURE() << "expected the mismatched prepared scene to be refused";
+    } catch (const cv::Exception& e) {
+        EXPECT_NE(e.err.find("other inputs or options"), std::string::npos) << e.err;
+    }
+    // and a different spp does not mix with the frames already there
+    InsertionParams pd = baseParams(in, dir / "d.mkv", dir / "work_a");
+    pd.spp = 8;
+    EXPECT_THROW(runInsertion(pd), cv::Exception);
+    EXPECT_FALSE(fs::exists(dir / "c.mkv"));
+    EXPECT_FALSE(fs::exists(dir / "d.mkv"));
+}
+
+// Away from the object and its shadow (no path met the object: diff exactly 0, mask 0) the
+// composite equals the input frame bit for bit; where the object is, it does not.
+TEST_F(PipelineInsertion, CompositeLeavesUntouchedPixelsBitExact) {
+    vbme_test::ScratchDir dir;
+    const int N = 2;
+    const InsertInput in = makeInput(dir, Size(96, 72), N, 4);
+    InsertionParams p = baseParams(in, dir / "out/%05d.png", dir / "work");
+    p.keep_exr = true;
+    p.lights = "none";
+    p.albedo = "retinex";
+    p.texture_mode = "per-frame";  // the thesis's frame-0 textures
+    p.has_place = true;            // and the object moved by --place
+    p.place = Point2d(40, 58);
+    const InsertionReport r = runInsertion(p);
+    ASSERT_TRUE(r.video_written);
+    {
+        const Scene prepared = Scene::read(dir / "work/prepared_scene.yml");
+        ASSERT_EQ(prepared.objects.size(), 1u);
+        const Matx44d want = placeOnFloor(in.sc, in.sc.objects[0], p.place);
+        EXPECT_LT(norm(prepared.objects[0].world_from_object - want, NORM_INF), 1e-9);
+        EXPECT_GT(norm(prepared.objects[0].world_from_object - in.sc.objects[0].world_from_object,
+                       NORM_INF),
+                  0.05);
+        FileStorage f(dir / "work/prepared_scene.yml", FileStorage::READ);
+        EXPECT_EQ((int)f["vbme_prepared"]["texture_frames"], 1);
+        EXPECT_EQ((std::string)f["vbme_prepared"]["texture_mode"], "per-frame");
+    }
+    for (int i = 0; i < N; ++i) {
+        const Mat input = imread(dir / format("video/%05d.png", i), IMREAD_COLOR);
+        const Mat out = imread(dir / format("work/frames/frame_%05d.png", i), IMREAD_COLOR);
+        const DifferentialImages im =
+            readDifferentialExr(dir / format("work/exr/frame_%05d.exr", i));
+        ASSERT_EQ(out.size(), input.size());
+        int untouched = 0, equal = 0, changed = 0;
+        for (int y = 0; y < out.rows; ++y)
+            for (int x = 0; x < out.cols; ++x) {
+                const Vec3f d = im.diff.at<Vec3f>(y, x);
+                const bool none = d == Vec3f(0, 0, 0) && im.mask.at<float>(y, x) == 0.f;
+                const bool same = out.at<Vec3b>(y, x) == input.at<Vec3b>(y, x);
+                untouched += none;
+                equal += none && same;
+                changed += !same;
+            }
+        EXPECT_EQ(equal, untouched) << "frame " << i;
+        EXPECT_GT(untouched, out.rows * out.cols / 3) << "frame " << i;
+        EXPECT_GT(changed, 20) << "frame " << i << ": the object should be visible";
+    }
+}
+
+// --place: the placed object's bottom centre projects back onto the pixel (< 0.5 px) and
+// sits on the floor; a pixel looking at the ceiling and one that would push the object
+// through a wall are refused.
+TEST_F(PipelineInsertion, PlaceOnFloorHitsThePixel) {
+    vbme_test::ScratchDir dir;
+    Scene s = syntheticRoomScene(Size(160, 120), 130, 0.35, 1.5);
+    const std::string mesh = dir / "cube.obj";
+    writeCubeObj(mesh, 0.3);
+    SceneObject o;
+    o.mesh = mesh;
+    // a turned object, offset: placement keeps the turn and replaces the offset
+    const double a = 0.4;
+    o.world_from_object = Matx44d(std::cos(a), -std::sin(a), 0, 5, std::sin(a), std::cos(a), 0, 5,
+                                  0, 0, 1, 5, 0, 0, 0, 1);
+    for (const Point2d px : {Point2d(80, 100), Point2d(30.25, 90.5), Point2d(120, 75)}) {
+        SceneObject placed = o;
+        placed.world_from_object = placeOnFloor(s, o, px);
+        Vec3d lo, hi;
+        objectWorldBounds(placed, lo, hi);
+        EXPECT_NEAR(lo[2], s.room.min[2], 1e-5);
+        const Vec3d bottom((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, lo[2]);
+        double depth = 0;
+        const Point2d back = s.camera.project(bottom, &depth);
+        EXPECT_GT(depth, 0);
+        EXPECT_LT(norm(back - px), 0.5) << px << " -> " << back;
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c)
+                EXPECT_DOUBLE_EQ(placed.world_from_object(r, c), o.world_from_object(r, c));
+    }
+    EXPECT_THROW(placeOnFloor(s, o, Point2d(80, 2)), cv::Exception);    // the ceiling
+    EXPECT_THROW(placeOnFloor(s, o, Point2d(80, 500)), cv::Exception);  // outside the frame
+    // a big object at the floor's far corner would poke through the walls
+    SceneObject big = o;
+    big.world_from_object = Matx44d(10, 0, 0, 0, 0, 10, 0, 0, 0, 0, 10, 0, 0, 0, 0, 1);
+    EXPECT_THROW(placeOnFloor(s, big, Point2d(80, 100)), cv::Exception);
+}
+
+}  // namespace
