@@ -122,6 +122,11 @@ void setupInsert(CLI::App& app) {
                    "scene's powers)")
         ->check(CLI::IsMember({"nnls", "hill-climb", "none"}))
         ->capture_default_str();
+    app.add_option("--white", o->p.white,
+                   "Albedo of the room's whitest surfaces: sets the light powers' scale for "
+                   "--albedo irradiance (0: keep the annotated powers)")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
     app.add_flag("--per-frame-gain", o->p.per_frame_gain,
                  "Light estimation also fits one exposure gain per frame (auto-exposure)");
     app.add_option("--threads", o->p.threads, "Worker threads (default: all cores)")

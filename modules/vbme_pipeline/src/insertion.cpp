@@ -329,6 +329,7 @@ void InsertionReport::write(const std::string& path) const {
             f << kv.first << kv.second;
         f << "}";
         f << "seconds_per_frame" << seconds_per_frame;
+        f << "white_scale" << white_scale;
         f << "lights"
           << "{";
         writeEstimate(f, lights);
@@ -466,6 +467,7 @@ InsertionReport runInsertion(const InsertionParams& p) {
     h.str(p.albedo);
     h.str(p.lights);
     h.num((int64)p.per_frame_gain);
+    h.num(p.white);
     h.num((int64)p.has_place);
     if (p.has_place) {
         h.num(p.place.x);
@@ -544,7 +546,9 @@ InsertionReport runInsertion(const InsertionParams& p) {
         std::map<std::string, Mat> radiance, seen;
         acc->textures(radiance, seen);
         const fs::path tex_dir = fs::path(work) / "textures";
+        std::map<std::string, Mat> observed;  // before filling: the albedo stage wants L unknown
         for (auto& kv : radiance) {
+            observed[kv.first] = kv.second.clone();
             fillUnseen(kv.second, seen[kv.first]);
             Mat enc;
             encode(kv.second, enc, scene.camera.response, CV_8U);
@@ -560,7 +564,44 @@ InsertionReport runInsertion(const InsertionParams& p) {
         room_scene.room.textures.clear();
         std::map<std::string, Mat> albedo;
         if (p.albedo == "irradiance") {
-            irradianceAlbedo(room_scene, radiance, albedo);
+            // The scale: scale all lights until the whitest surfaces (99th percentile of the
+            // raw π·L/E, largest channel, seen unclipped texels) have albedo p.white. E is nearly
+            // proportional to the lights' power (the indirect part, gathered from the observed
+            // radiance, is not), so a few fixed-point steps converge.
+            IrradianceAlbedoParams ap;
+            for (int it = 0; it < 6; ++it) {
+                std::map<std::string, Mat> irr;
+                irradianceAlbedo(room_scene, observed, seen, albedo, ap, &irr);
+                if (!(p.white > 0)) break;
+                std::vector<float> raw;
+                for (const auto& kv : observed) {
+                    const Mat& L = kv.second;
+                    const Mat& E = irr[kv.first];
+                    const Mat& sn = seen[kv.first];
+                    for (int y = 0; y < L.rows; ++y)
+                        for (int x = 0; x < L.cols; ++x) {
+                            if (!sn.at<uchar>(y, x)) continue;
+                            const Vec3f l = L.at<Vec3f>(y, x), e = E.at<Vec3f>(y, x);
+                            // clipped texels (the lights themselves, highlights) say
+                            // nothing about albedo: their L is a lower bound
+                            if (std::max({l[0], l[1], l[2]}) >= 0.95f) continue;
+                            float m = 0;
+                            for (int c = 0; c < 3; ++c)
+                                if (e[c] > 0) m = std::max(m, float(CV_PI) * l[c] / e[c]);
+                            raw.push_back(m);
+                        }
+                }
+                if (raw.empty()) break;
+                std::nth_element(raw.begin(), raw.begin() + raw.size() * 99 / 100, raw.end());
+                const double q = raw[raw.size() * 99 / 100];
+                if (!(q > 0)) break;
+                const double k = q / p.white;  // lights × k brings the white point to p.white
+                rep.white_scale *= k;
+                if (std::abs(k - 1) < 0.01) break;
+                LightEstimate uniform;
+                uniform.scale.assign(room_scene.lights.size(), Vec3d(k, k, k));
+                applyLightEstimate(room_scene, uniform);
+            }
         } else {
             for (const auto& kv : radiance)
                 retinexAlbedo(kv.second, albedo[kv.first]);
@@ -607,7 +648,8 @@ InsertionReport runInsertion(const InsertionParams& p) {
             rec << "cameras" << fs::absolute(path_file).lexically_normal().string();
             rec << "frames" << n << "texture_mode" << p.texture_mode << "texture_frames"
                 << (int)tex_frames.size() << "albedo" << p.albedo << "lights_method" << p.lights
-                << "per_frame_gain" << (int)p.per_frame_gain;
+                << "per_frame_gain" << (int)p.per_frame_gain << "white" << p.white << "white_scale"
+                << rep.white_scale;
             if (p.has_place)
                 rec << "place"
                     << "[:" << p.place.x << p.place.y << "]";

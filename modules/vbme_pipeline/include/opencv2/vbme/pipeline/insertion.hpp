@@ -34,8 +34,13 @@ struct CV_EXPORTS InsertionParams {
     std::string albedo = "irradiance";        //!< or "retinex"
     std::string lights = "nnls";              //!< or "hill-climb", "none"
     bool per_frame_gain = false;              //!< light estimation fits one exposure gain per frame
-    int threads = 0;                          //!< 0: all cores
-    bool force = false;                       //!< overwrite an existing --out
+    /** @brief Albedo of the room's whitest surfaces (99th percentile of the irradiance albedo's
+    largest channel), which fixes the scale that image = albedo × light power leaves open: the
+    lights' annotated radiance comes from clipped LDR pixels and is only a lower bound. 0 keeps
+    the annotated powers. Retinex albedo uses its own white point (RetinexParams::white). */
+    double white = 0.9;
+    int threads = 0;           //!< 0: all cores
+    bool force = false;        //!< overwrite an existing --out
     bool quiet = false;        //!< no scene warnings on stderr (progress: Progress::setEnabled)
     std::string command_line;  //!< recorded in the EXR provenance attributes (optional)
 };
@@ -50,6 +55,9 @@ struct CV_EXPORTS InsertionReport {
     std::map<std::string, double> seconds;
     double seconds_per_frame = 0;  //!< render + composite per rendered frame
     LightEstimate lights;          //!< the light estimate (stored in the prepared scene)
+    /** @brief Factor applied to all annotated light powers to bring the room's white point to
+    InsertionParams::white (before `lights`; 1 when not used). */
+    double white_scale = 1;
     int spp = 0;                   //!< samples per pixel used
     bool prepared_reused = false;  //!< the prepared scene of the work folder was reused
     std::string work;              //!< the work folder used
