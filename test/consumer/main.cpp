@@ -1,6 +1,9 @@
-// Uses the installed vbme package: fits a disk to a drawn circle and checks the answer.
+// Uses the installed vbme package: fits a disk to a drawn circle and checks the answer, and
+// reads a material through the pipeline module (the top of the dependency chain, so every
+// module's installed headers and libraries are exercised).
 #include <cstdio>
 
+#include <opencv2/vbme/pipeline.hpp>
 #include <opencv2/vbme/track.hpp>
 
 int main() {
@@ -9,7 +12,9 @@ int main() {
     cv::vbme::diskMask(cv::Size(80, 60), truth, mask);
     const cv::vbme::Disk d = cv::vbme::fitDisk(mask);
     const double err = cv::norm(d.center - truth.center) + std::abs(d.radius - truth.radius);
-    std::printf("vbme %s consumer: fitted (%.2f, %.2f) r %.2f, error %.3f\n", VBME_VERSION, d.center.x,
-                d.center.y, d.radius, err);
-    return err < 0.5 ? 0 : 1;
+    const cv::vbme::Material chrome = cv::vbme::parseMaterialSpec("chrome");
+    std::printf("vbme %s consumer: fitted (%.2f, %.2f) r %.2f, error %.3f; chrome is %s\n",
+                VBME_VERSION, d.center.x, d.center.y, d.radius, err,
+                cv::vbme::Material::typeName(chrome.type).c_str());
+    return err < 0.5 && chrome.type == cv::vbme::Material::CONDUCTOR ? 0 : 1;
 }
