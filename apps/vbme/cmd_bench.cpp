@@ -14,6 +14,10 @@
 #include <opencv2/vbme/render.hpp>
 #define VBME_BENCH_RENDER 1
 #endif
+#if __has_include(<opencv2/vbme/pipeline.hpp>)
+#include <opencv2/vbme/pipeline.hpp>
+#define VBME_BENCH_PIPELINE 1
+#endif
 
 #include "command.hpp"
 
@@ -141,15 +145,65 @@ void benchDifferential(const BenchOptions& o) {
 }
 #endif
 
+#ifdef VBME_BENCH_PIPELINE
+// The insertion pipeline on a rendered hand-held room sequence with its true cameras (so COLMAP
+// is not timed): every stage of runInsertion, and seconds per frame against one plain render
+// of the same frame with the object (the peer measured in the same run).
+void benchInsert(const BenchOptions& o) {
+    using namespace cv;
+    using namespace cv::vbme;
+    namespace fs = std::filesystem;
+    const fs::path dir =
+        fs::temp_directory_path() / format("vbme-bench-insert-%dx%d", o.width, o.height);
+    SyntheticInsertionSequence::Params sp;
+    sp.size = Size(o.width, o.height);
+    sp.frames = 3;
+    sp.spp = 8;  // the input only; the timed renders use --spp
+    const SyntheticInsertionSequence seq(dir.string(), sp);
+    std::printf("insert: rendering a %d-frame %dx%d input (cached in %s)\n", sp.frames, o.width,
+                o.height, dir.string().c_str());
+    seq.writeVideos();
+    fs::remove_all(dir / "work");
+    InsertionParams ip;
+    ip.video = seq.inputVideoPath();
+    ip.scene = seq.trueScenePath();
+    ip.cameras = seq.trueCamerasPath();
+    ip.out = (dir / "inserted.mkv").string();
+    ip.work = (dir / "work").string();
+    ip.spp = o.spp;
+    ip.force = true;
+    ip.quiet = true;
+    const InsertionReport rep = runInsertion(ip);
+
+    const Scene scene = Scene::read(seq.trueScenePath());
+    Renderer::Params rp;
+    rp.spp = o.spp;
+    rp.max_depth = scene.render.max_depth;
+    RenderImages single;
+    const double t_single =
+        Renderer::create(rp)->render(*RenderScene::create(scene), seq.cameras()[0], single).seconds;
+    std::printf("insert %dx%d, %d spp, max depth %d, %d frames (%d threads):\n", o.width, o.height,
+                o.spp, rp.max_depth, rep.frames_rendered, getNumThreads());
+    for (const auto& kv : rep.seconds)
+        std::printf("  %-10s %8.2f s\n", kv.first.c_str(), kv.second);
+    std::printf(
+        "  per frame (differential render + composite) %.2f s = %.2fx one plain render "
+        "(%.2f s)\n",
+        rep.seconds_per_frame, rep.seconds_per_frame / t_single, t_single);
+    std::printf("thesis (2013, LuxRender, 603x804, 32 spp): ~15-20 min per frame\n");
+}
+#endif
+
 void setupBench(CLI::App& app) {
     auto o = std::make_shared<BenchOptions>();
     app.add_option("what", o->what,
-                   "What to measure: track (tracking throughput) or differential (one-pass "
+                   "What to measure: track (tracking throughput), differential (one-pass "
                    "differential rendering vs one and two renders; reads "
-                   "$VBME_DATA/meshes/stanford-bunny.obj)")
-        ->check(CLI::IsMember({"track", "differential"}))
+                   "$VBME_DATA/meshes/stanford-bunny.obj) or insert (vbme insert's stages and "
+                   "seconds per frame on a rendered 3-frame room sequence, vs one plain render)")
+        ->check(CLI::IsMember({"track", "differential", "insert"}))
         ->capture_default_str();
-    app.add_option("--spp", o->spp, "Samples per pixel (differential)")
+    app.add_option("--spp", o->spp, "Samples per pixel (differential, insert)")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
     app.add_option("--width", o->width, "Frame width")
@@ -158,11 +212,11 @@ void setupBench(CLI::App& app) {
     app.add_option("--height", o->height, "Frame height")
         ->check(CLI::Range(64, 8192))
         ->capture_default_str();
-    app.add_option("--frames", o->frames, "Frames to process")
+    app.add_option("--frames", o->frames, "Frames to process (track)")
         ->check(CLI::Range(1, 1000000))
         ->capture_default_str();
     app.add_option("--threads", o->threads,
-                   "OpenCV threads for track (differential renders on all cores)")
+                   "OpenCV threads for track (differential and insert render on all cores)")
         ->check(CLI::Range(1, 256))
         ->capture_default_str();
     app.callback([o] {
@@ -176,6 +230,15 @@ void setupBench(CLI::App& app) {
 #else
         if (o->what == "differential")
             CV_Error(cv::Error::StsError, "vbme was built without vbme_render");
+#endif
+#ifdef VBME_BENCH_PIPELINE
+        if (o->what == "insert") {
+            cv::setNumThreads(-1);
+            benchInsert(*o);
+        }
+#else
+        if (o->what == "insert")
+            CV_Error(cv::Error::StsError, "vbme was built without vbme_pipeline");
 #endif
     });
 }
