@@ -142,14 +142,15 @@ TEST(RenderLightEstimation, RecoversKnownPowers) {
     for (double g : e.gains)
         EXPECT_EQ(g, 1.0);
 
-    // The other runs fit at 40 × 30 (test time; the hill climbing fails at any size).
+    // The other runs fit at 40 × 30 (test time). Hill climbing lowers the fit error (measured
+    // 0.298 → 0.107) but 5 steps do not reach the powers: it is reported, NNLS asserted.
     p.method = LightEstimationParams::HILL_CLIMB;
     p.render_size = Size(40, 30);
     t0 = getTickCount();
     const LightEstimate h = estimateLights(s, frames, cams, p);
     printEstimate("hill climbing (Eq. 5.1)", h, (getTickCount() - t0) / getTickFrequency());
     EXPECT_LE(h.iterations, 5);
-    EXPECT_LE(h.error_after, h.error_before);  // never worse than the start (best iterate kept)
+    EXPECT_LT(h.error_after, 0.8 * h.error_before);  // it climbs (measured 0.298 → 0.107)
 
     // Hill climbing started within 10 % of the truth (the regime Eq. 5.1 was designed for).
     Scene near = truthScene(s);

@@ -71,14 +71,14 @@ frames with 6; 0.7 % with 6).
   With `per_frame_gain`, gains and powers are alternated (gain_f in closed form per frame, then
   NNLS), the scale being fixed by mean(gain) = 1, for at most 20 rounds.
 - **HILL_CLIMB**: the thesis's update (Eq. 5.1), per light and channel,
-  s ← s · 2·(1 − 1/(1 + e^(−15·err))), with err = (Σ_p B_i(p)·(R(p) − I(p))) / (Σ_p B_i(p)·I(p)),
-  the relative difference rendered − observed weighted by the light's own contribution B_i (so
-  each light looks at the part of the image it lights; err > 0: too bright, the power drops).
-  The render R = Σ s_i B_i is the exact re-render at the new powers (same samples), at most
-  `max_iterations` times, stopping when every |err| < `tolerance`; the iterate with the lowest
-  relative RMS error is returned. Near err = 0 the factor is 1 − 7.5·err, so the update
-  overshoots by about 7.5× and oscillates; it is kept for comparison with the thesis (in the
-  tests no iterate improved on the start, from ×2 / ×0.5 nor from ±10 % of the truth).
+  s ← s · 2·(1 − 1/(1 + e^(−15·err))), where err is the mean difference of display-encoded
+  values (0..1, the camera response), rendered − observed, over the used pixels, each pixel
+  weighted by the light's own share s_i·B_i of the render (err > 0: too bright, the power
+  drops). The render R = Σ s_i B_i is the exact re-render at the new powers (same samples), at
+  most `max_iterations` times, stopping when every |err| < `tolerance`; the iterate with the
+  lowest relative RMS error is returned. (With a relative radiance error instead, the factor
+  ≈ 1 − 7.5·err overshot ~7.5× per step and no iterate improved on the start.) Shared pixels
+  couple the lights, and 5 steps do not reach the optimum: NNLS is the better method.
 
 A light whose basis contributes nothing to the used pixels gets scale 0 from NNLS (it is not
 observable); check LightEstimate::scale before applying it.
