@@ -10,6 +10,7 @@
 #include <opencv2/vbme/calib/synthetic_sequence.hpp>
 #include <opencv2/vbme/core.hpp>
 
+#include "test_render_util.hpp"
 #include "vbme_test_util.hpp"
 
 namespace {
@@ -18,19 +19,6 @@ using namespace cv;
 using namespace cv::vbme;
 namespace fs = std::filesystem;
 using vbme_test::run;
-
-void writeCubeObj(const std::string& path, double s) {
-    std::ofstream f(path);
-    const double h = s / 2;
-    for (int i = 0; i < 8; ++i)
-        f << "v " << (i & 1 ? h : -h) << " " << (i & 2 ? h : -h) << " " << (i & 4 ? s : 0.0)
-          << "\n";
-    const int q[6][4] = {{1, 3, 4, 2}, {5, 6, 8, 7}, {1, 2, 6, 5},
-                         {3, 7, 8, 4}, {1, 5, 7, 3}, {2, 4, 8, 6}};
-    for (const auto& r : q)
-        f << "f " << r[0] << " " << r[1] << " " << r[2] << "\nf " << r[0] << " " << r[2] << " "
-          << r[3] << "\n";
-}
 
 // Inputs for the command: a scene (room, ceiling light, cube), a camera path, and a folder
 // of frames drawn with drawSyntheticRoom (the content does not matter for the input checks).
@@ -52,7 +40,7 @@ Inputs makeInputs(const vbme_test::ScratchDir& dir, const std::string& tag, Size
     s.lights = {l};
     SceneObject o;
     o.mesh = dir / "cube.obj";
-    if (!fs::exists(o.mesh)) writeCubeObj(o.mesh, 0.3);
+    if (!fs::exists(o.mesh)) vbme_test::writeCubeObj(o.mesh, "", "", 0.3, true);
     o.world_from_object =
         Matx44d(1, 0, 0, object_at[0], 0, 1, 0, object_at[1], 0, 0, 1, object_at[2], 0, 0, 0, 1);
     o.has_material = true;

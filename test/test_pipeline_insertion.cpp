@@ -10,6 +10,7 @@
 #include <opencv2/vbme/pipeline/insertion.hpp>
 #include <opencv2/vbme/render.hpp>
 
+#include "test_render_util.hpp"
 #include "vbme_test_util.hpp"
 
 namespace {
@@ -17,21 +18,6 @@ namespace {
 using namespace cv;
 using namespace cv::vbme;
 namespace fs = std::filesystem;
-
-// An axis-aligned cube of side s whose bounding-box bottom centre is the origin.
-void writeCubeObj(const std::string& path, double s) {
-    std::ofstream f(path);
-    const double h = s / 2;
-    for (int i = 0; i < 8; ++i)
-        f << "v " << (i & 1 ? h : -h) << " " << (i & 2 ? h : -h) << " " << (i & 4 ? s : 0.0)
-          << "\n";
-    // faces (1-based), outward winding
-    const int q[6][4] = {{1, 3, 4, 2}, {5, 6, 8, 7}, {1, 2, 6, 5},
-                         {3, 7, 8, 4}, {1, 5, 7, 3}, {2, 4, 8, 6}};
-    for (const auto& r : q)
-        f << "f " << r[0] << " " << r[1] << " " << r[2] << "\nf " << r[0] << " " << r[2] << " "
-          << r[3] << "\n";
-}
 
 // A small synthetic input: textured room lit by a ceiling panel, a cube on the floor, a
 // hand-held path, the frames rendered without the cube as a PNG folder.
@@ -59,7 +45,7 @@ InsertInput makeInput(const vbme_test::ScratchDir& dir, Size size = Size(96, 72)
     l.radiance = Vec3d(12, 12, 12);
     s.lights = {l};
     in.mesh = dir / "cube.obj";
-    writeCubeObj(in.mesh, 0.3);
+    vbme_test::writeCubeObj(in.mesh, "", "", 0.3, true);
     SceneObject o;
     o.mesh = in.mesh;
     o.world_from_object = Matx44d(1, 0, 0, 0.1, 0, 1, 0, 2.0, 0, 0, 1, 0, 0, 0, 0, 1);
@@ -270,7 +256,7 @@ TEST_F(PipelineInsertion, PlaceOnFloorHitsThePixel) {
     vbme_test::ScratchDir dir;
     Scene s = syntheticRoomScene(Size(160, 120), 130, 0.35, 1.5);
     const std::string mesh = dir / "cube.obj";
-    writeCubeObj(mesh, 0.3);
+    vbme_test::writeCubeObj(mesh, "", "", 0.3, true);
     SceneObject o;
     o.mesh = mesh;
     // a turned object, offset: placement keeps the turn and replaces the offset

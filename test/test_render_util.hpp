@@ -43,15 +43,18 @@ inline void writeSphereObj(const std::string& path, int stacks = 48, int slices 
         }
 }
 
-/** @brief Writes an axis-aligned unit cube [−½, ½]³ (outward faces, flat) as OBJ. */
+/** @brief Writes an axis-aligned cube of side @p side (outward faces, flat) as OBJ: centred at
+the origin, or with @p standing its bounding-box bottom centre at the origin (z from 0 to side),
+as an object placed on a floor. */
 inline void writeCubeObj(const std::string& path, const std::string& mtl = "",
-                         const std::string& usemtl = "") {
+                         const std::string& usemtl = "", double side = 1.0, bool standing = false) {
     std::ofstream f(path);
     if (!mtl.empty()) f << "mtllib " << mtl << "\n";
     if (!usemtl.empty()) f << "usemtl " << usemtl << "\n";
+    const double h = side / 2, z0 = standing ? 0.0 : -h, z1 = standing ? side : h;
     for (int i = 0; i < 8; ++i)
-        f << "v " << ((i & 1) ? 0.5 : -0.5) << " " << ((i & 2) ? 0.5 : -0.5) << " "
-          << ((i & 4) ? 0.5 : -0.5) << "\n";
+        f << "v " << ((i & 1) ? h : -h) << " " << ((i & 2) ? h : -h) << " " << ((i & 4) ? z1 : z0)
+          << "\n";
     // vertex index = 1 + x + 2y + 4z; faces counter-clockwise seen from outside
     f << "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
 }

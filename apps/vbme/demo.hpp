@@ -5,6 +5,7 @@
 #ifndef VBME_APP_DEMO_HPP
 #define VBME_APP_DEMO_HPP
 
+#include <chrono>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -26,6 +27,11 @@ struct DemoResult {
     std::vector<std::string> watch;    //!< videos / images a person should open
     std::vector<std::string> figures;  //!< measured figures, one line each
 };
+
+/** @brief Wall seconds since @p t0 (the parts' timing figures). */
+inline double secondsSince(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
 /** @brief Material editing (issue: `vbme material-edit`): a rendered clip of a coloured ball
 rolling in a textured scene, edited to chrome and to glass. */

@@ -25,10 +25,6 @@ namespace fs = std::filesystem;
 using namespace cv;
 using namespace cv::vbme;
 
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 double rotationErrorDeg(const Matx33d& a, const Matx33d& b) {
     const Matx33d d = a * b.t();
     const double c = std::max(-1.0, std::min(1.0, (d(0, 0) + d(1, 1) + d(2, 2) - 1) / 2));

@@ -25,10 +25,6 @@ namespace fs = std::filesystem;
 using namespace cv;
 using namespace cv::vbme;
 
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 double angleDeg(const Vec3d& a, const Vec3d& b) {
     const double c = a.dot(b) / (norm(a) * norm(b));
     return std::acos(std::max(-1.0, std::min(1.0, c))) * 180 / CV_PI;
