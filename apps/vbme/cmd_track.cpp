@@ -21,29 +21,14 @@ struct TrackOptions {
 void runTrack(const TrackOptions& o) {
     using namespace cv::vbme;
     TrackVideoOptions opt;
-    if (!o.params_file.empty()) {
-        cv::FileStorage fs;
-        try {
-            fs.open(o.params_file, cv::FileStorage::READ);
-        } catch (const cv::Exception& e) {
-            CV_Error(cv::Error::StsParseError,
-                     o.params_file + ": not a readable YAML/JSON file: " + e.err);
-        }
-        if (!fs.isOpened()) CV_Error(cv::Error::StsError, "cannot open '" + o.params_file + "'");
-        const cv::FileNode n = fs["tracker"].empty() ? fs.root() : fs["tracker"];
-        try {
-            opt.params.read(n);
-        } catch (const cv::Exception& e) {
-            CV_Error(cv::Error::StsBadArg, o.params_file + ": " + e.err);
-        }
-    }
+    if (!o.params_file.empty()) opt.params = readTrackerParamsFile(o.params_file);
     if (o.threshold >= 0) opt.params.threshold = o.threshold;
     if (o.update_rate >= 0) opt.params.model_update_rate = o.update_rate;
     if (o.no_window) opt.params.use_search_window = false;
     if (o.no_neutral) opt.params.neutral_highlights = false;
     opt.overlay = o.overlay;
     opt.force = o.common.force;
-    const cv::Mat mask = imreadChecked(o.mask, cv::IMREAD_GRAYSCALE);
+    const cv::Mat mask = readObjectMask(o.mask);
     const TrackVideoSummary s = trackVideo(o.video, mask, o.out, opt);
     const int n = (int)s.results.size();
     std::printf(

@@ -43,6 +43,11 @@ void addCommonOptions(CLI::App& app, CommonOptions& opts, bool with_force = true
 /** @brief Applies the common options (turns progress off when quiet). */
 void applyCommonOptions(const CommonOptions& opts);
 
+/** @brief The whole program: parses @p argv, runs the command, returns the exit code (0, 1 bad
+input or failure, 2 usage). With @p parse_only the commands' options are parsed and checked
+(CLI11 validators) but no command runs (the CLI fuzz target). */
+int vbmeMain(int argc, char** argv, bool parse_only = false);
+
 /** @brief The command line as one string (for provenance headers). */
 const std::string& commandLine();
 

@@ -31,9 +31,10 @@ void applyCommonOptions(const CommonOptions& opts) {
 
 }  // namespace vbme_app
 
-int main(int argc, char** argv) {
+int vbme_app::vbmeMain(int argc, char** argv, bool parse_only) {
     using namespace vbme_app;
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+    g_command_line.clear();
     for (int i = 0; i < argc; ++i)
         g_command_line += (i ? " " : "") + std::string(argv[i]);
 
@@ -61,6 +62,11 @@ int main(int argc, char** argv) {
     for (const auto& c : table) {
         CLI::App* sub = app.add_subcommand(c.name, c.summary);
         c.setup(*sub);
+        if (parse_only) {  // options parsed and checked, nothing run
+            sub->callback([] {});
+            for (CLI::App* nested : sub->get_subcommands({}))
+                nested->callback([] {});
+        }
     }
 
     if (argc > 1 && argv[1][0] != '-') {
@@ -96,3 +102,9 @@ int main(int argc, char** argv) {
     }
     return 0;
 }
+
+#ifndef VBME_APP_NO_MAIN
+int main(int argc, char** argv) {
+    return vbme_app::vbmeMain(argc, argv);
+}
+#endif

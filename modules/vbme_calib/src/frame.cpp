@@ -114,10 +114,7 @@ void FrameAnnotation::read(const FileNode& root, const std::string& source) {
     *this = FrameAnnotation();
     if (!root.isMap()) CV_Error(Error::StsParseError, source + ": expected a map at top level");
     if (!root["image_size"].empty()) {
-        const std::vector<double> s = readNumbers(root["image_size"], "image_size");
-        if (s.size() != 2 || s[0] <= 0 || s[1] <= 0)
-            CV_Error(Error::StsParseError, "image_size: expected [width, height]");
-        image_size = Size((int)s[0], (int)s[1]);
+        image_size = readImageSize(root["image_size"], "image_size");
     }
     auto num = [&](const char* key, double& v) {
         const FileNode n = root[key];

@@ -49,8 +49,7 @@ CameraPath CameraPath::read(const std::string& path) {
     try {
         p.K = Matx33d(readMatrix(fs["K"], 3, 3, "K"));
         if (!fs["image_size"].empty()) {
-            Mat sz = readMatrix(fs["image_size"], 2, 1, "image_size");
-            p.image_size = Size(cvRound(sz.at<double>(0)), cvRound(sz.at<double>(1)));
+            p.image_size = readImageSize(fs["image_size"], "image_size");
         }
         const FileNode frames = fs["frames"];
         if (!frames.isSeq()) CV_Error(Error::StsParseError, "frames: expected a sequence");
@@ -59,7 +58,11 @@ CameraPath CameraPath::read(const std::string& path) {
             const std::string f = "frames[" + std::to_string(i) + "]";
             const FileNode n = *it;
             Frame fr;
-            fr.index = n["index"].empty() ? i : (int)n["index"];
+            if (!n.isMap()) CV_Error(Error::StsParseError, f + ": expected a map {index, R, t}");
+            const FileNode idx = n["index"];
+            if (!idx.empty() && !idx.isInt())
+                CV_Error(Error::StsParseError, f + ".index: expected an integer");
+            fr.index = idx.empty() ? i : (int)idx;
             if (fr.index != i)
                 CV_Error(Error::StsParseError,
                          format("%s.index: is %d, expected %d (one entry per frame, in order)",
@@ -67,7 +70,8 @@ CameraPath CameraPath::read(const std::string& path) {
             fr.R = Matx33d(readMatrix(n["R"], 3, 3, f + ".R"));
             fr.t = Vec3d(readMatrix(n["t"], 3, 1, f + ".t"));
             if (!n["source"].empty())
-                fr.source = parseSource((std::string)n["source"], f + ".source");
+                fr.source = parseSource(n["source"].isString() ? (std::string)n["source"] : "",
+                                        f + ".source");
             if (std::abs(determinant(Mat(fr.R)) - 1.0) > 1e-3)
                 CV_Error(Error::StsBadArg, f + ".R: not a rotation");
             p.frames.push_back(fr);

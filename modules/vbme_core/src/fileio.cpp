@@ -4,6 +4,10 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cctype>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <system_error>
 
@@ -55,13 +59,45 @@ void checkOverwrite(const std::string& path, bool force) {
 
 void imwriteAtomic(const std::string& path, InputArray img, const std::vector<int>& params) {
     AtomicFile out(path);
+    // encoded in memory and written here, so that a short write (a full disk, a file-size
+    // limit) is an error instead of a truncated image renamed into place
+    std::vector<uchar> bytes;
+    std::string ext = fs::path(path).extension().string();
+    for (auto& c : ext)
+        c = (char)std::tolower((unsigned char)c);
+    if (ext != ".png" && ext != ".jpg" && ext != ".jpeg" && ext != ".ppm" && ext != ".pgm" &&
+        ext != ".bmp") {
+        // encoders that write only to files (OpenEXR, TIFF): through cv::imwrite
+        bool ok = false;
+        try {
+            ok = imwrite(out.tempPath(), img, params);
+        } catch (const cv::Exception& e) {
+            CV_Error(Error::StsError, "cannot write '" + path + "': " + e.err);
+        }
+        if (!ok)
+            CV_Error(Error::StsError, "cannot write '" + path + "' (no encoder for this type?)");
+        out.commit();
+        return;
+    }
     bool ok = false;
     try {
-        ok = imwrite(out.tempPath(), img, params);
+        ok = imencode(ext, img, bytes, params);
     } catch (const cv::Exception& e) {
         CV_Error(Error::StsError, "cannot write '" + path + "': " + e.err);
     }
     if (!ok) CV_Error(Error::StsError, "cannot write '" + path + "' (no encoder for this type?)");
+    FILE* f = std::fopen(out.tempPath().c_str(), "wb");
+    if (!f) CV_Error(Error::StsError, "cannot write '" + path + "': " + std::strerror(errno));
+    const size_t n = std::fwrite(bytes.data(), 1, bytes.size(), f);
+    const int write_errno = errno;
+    const bool flushed = std::fflush(f) == 0;
+    const int flush_errno = errno;
+    const bool closed = std::fclose(f) == 0;
+    if (n != bytes.size() || !flushed || !closed)
+        CV_Error(
+            Error::StsError,
+            format("cannot write '%s' (%zu of %zu bytes written): %s (disk full?)", path.c_str(), n,
+                   bytes.size(), std::strerror(n != bytes.size() ? write_errno : flush_errno)));
     out.commit();
 }
 
@@ -73,6 +109,23 @@ Mat imreadChecked(const std::string& path, int flags) {
     Mat m = imread(path, flags);
     if (m.empty()) CV_Error(Error::StsError, "'" + path + "' is not a readable image");
     return m;
+}
+
+Mat readObjectMask(const std::string& path, Size expected_size) {
+    Mat m = imreadChecked(path, IMREAD_GRAYSCALE);
+    if (expected_size.area() > 0 && m.size() != expected_size)
+        CV_Error(Error::StsBadArg,
+                 format("mask '%s' is %dx%d but the video's frames are %dx%d", path.c_str(), m.cols,
+                        m.rows, expected_size.width, expected_size.height));
+    const int n = countNonZero(m);
+    if (n == 0)
+        CV_Error(Error::StsBadArg,
+                 "mask '" + path + "' is empty: expected the object's pixels set to 255");
+    if (n == (int)m.total())
+        CV_Error(Error::StsBadArg,
+                 "mask '" + path + "' covers the whole frame: expected only the object");
+    Mat out = m != 0;
+    return out;
 }
 
 std::string resolvePath(const std::string& base, const std::string& p) {

@@ -2,6 +2,7 @@
 #include "opencv2/vbme/core/scene.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "opencv2/vbme/core/fileio.hpp"
 
@@ -61,6 +62,17 @@ static double readNumber(const FileNode& n, const std::string& field, double def
     if (n.empty() || n.isNone()) return def;
     if (!n.isReal() && !n.isInt()) CV_Error(Error::StsParseError, field + ": expected a number");
     return (double)n;
+}
+
+// An integer setting in [lo, hi]: a value out of range is refused before any conversion (a
+// double beyond the integer's range has no defined conversion).
+static double readIntegral(const FileNode& n, const std::string& field, double def, double lo,
+                           double hi) {
+    const double v = readNumber(n, field, def);
+    if (!(v >= lo && v <= hi) || v != std::floor(v))
+        CV_Error(Error::StsBadArg,
+                 format("%s: %.17g is not an integer in [%.17g, %.17g]", field.c_str(), v, lo, hi));
+    return v;
 }
 
 static Vec3d readVec3Or(const FileNode& n, const std::string& field, const Vec3d& def) {
@@ -290,6 +302,21 @@ const std::vector<std::string>& Room::faceNames() {
 
 // ---------------------------------------------------------------- Scene
 
+Size readImageSize(const FileNode& node, const std::string& field) {
+    Mat sz = readMatrix(node, 2, 1, field);
+    const double w = sz.at<double>(0), h = sz.at<double>(1);
+    if (!(w >= 1 && h >= 1) || w != std::floor(w) || h != std::floor(h))
+        CV_Error(Error::StsBadArg,
+                 format("%s: [%.17g, %.17g] is not a positive integer size [width, height]",
+                        field.c_str(), w, h));
+    if (w > kMaxImageSide || h > kMaxImageSide || w * h > kMaxImagePixels)
+        CV_Error(Error::StsBadArg,
+                 format("%s: %.17g x %.17g is too large (vbme accepts at most %d pixels a side "
+                        "and %d pixels in all)",
+                        field.c_str(), w, h, kMaxImageSide, kMaxImagePixels));
+    return Size((int)w, (int)h);
+}
+
 static void readObjects(const FileNode& seq, const std::string& key, const std::string& base,
                         std::vector<SceneObject>& out) {
     if (seq.empty() || seq.isNone()) return;
@@ -340,10 +367,7 @@ static void writeObjects(FileStorage& fs, const std::string& key, const std::str
 static Scene readSceneImpl(const FileStorage& fs, const std::string& base) {
     Scene s;
     const FileNode root = fs.root();
-    Mat sz = readMatrix(root["image_size"], 2, 1, "image_size");
-    s.image_size = Size(cvRound(sz.at<double>(0)), cvRound(sz.at<double>(1)));
-    if (s.image_size.width <= 0 || s.image_size.height <= 0)
-        CV_Error(Error::StsBadArg, "image_size: must be positive");
+    s.image_size = readImageSize(root["image_size"], "image_size");
     s.camera.read(root["camera"]);
     s.camera.image_size = s.image_size;
 
@@ -427,13 +451,12 @@ static Scene readSceneImpl(const FileStorage& fs, const std::string& base) {
 
     const FileNode r = root["render"];
     if (!r.empty() && !r.isNone()) {
-        s.render.spp = (int)readNumber(r["spp"], "render.spp", s.render.spp);
+        s.render.spp = (int)readIntegral(r["spp"], "render.spp", s.render.spp, 1, kMaxSpp);
         s.render.max_depth =
-            (int)readNumber(r["max_depth"], "render.max_depth", s.render.max_depth);
-        s.render.seed = (uint64)readNumber(r["seed"], "render.seed", (double)s.render.seed);
-        if (s.render.spp <= 0) CV_Error(Error::StsBadArg, "render.spp: must be positive");
-        if (s.render.max_depth <= 0)
-            CV_Error(Error::StsBadArg, "render.max_depth: must be positive");
+            (int)readIntegral(r["max_depth"], "render.max_depth", s.render.max_depth, 1, kMaxDepth);
+        // seeds above 2^31 are written as reals, exact up to 2^53
+        s.render.seed = (uint64)readIntegral(r["seed"], "render.seed", (double)s.render.seed, 0,
+                                             9007199254740992.0);
     }
     return s;
 }

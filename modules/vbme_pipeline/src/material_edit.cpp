@@ -381,19 +381,8 @@ MaterialEditReport runMaterialEdit(const MaterialEditParams& p) {
             CV_Error(Error::StsBadArg, "video '" + p.video + "' holds no frame");
     }
     const Size size = frame.size();
-    Mat first_mask = imreadChecked(p.first_mask, IMREAD_GRAYSCALE);
-    if (first_mask.size() != size)
-        CV_Error(Error::StsBadArg,
-                 format("first-frame mask '%s' is %dx%d but the video's frames are %dx%d",
-                        p.first_mask.c_str(), first_mask.cols, first_mask.rows, size.width,
-                        size.height));
-    const int mask_pixels = countNonZero(first_mask);
-    if (mask_pixels == 0)
-        CV_Error(Error::StsBadArg, "first-frame mask '" + p.first_mask +
-                                       "' is empty: expected the object's pixels set to 255");
-    if (mask_pixels == (int)size.area())
-        CV_Error(Error::StsBadArg, "first-frame mask '" + p.first_mask +
-                                       "' covers the whole frame: expected only the object");
+    // the first-frame mask: readable, of the video's size, marking some but not all pixels
+    Mat first_mask = readObjectMask(p.first_mask, size);
 
     ThreadScope threads(p.threads);
     const double focal = p.focal > 0 ? p.focal : focalFromFov(size.width, 60.0);

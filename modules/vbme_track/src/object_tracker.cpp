@@ -2,6 +2,7 @@
 #include "opencv2/vbme/track/object_tracker.hpp"
 
 #include <cmath>
+#include <type_traits>
 
 #include <opencv2/imgproc.hpp>
 
@@ -13,13 +14,24 @@ namespace vbme {
 ObjectTracker::Params::Params() = default;
 
 void ObjectTracker::Params::read(const FileNode& fn) {
+    if (!fn.isMap() && !fn.empty() && !fn.isNone())
+        CV_Error(Error::StsParseError, "tracker parameters: expected a map of name: value");
     auto rd = [&](const char* key, auto& v) {
+        using T = std::decay_t<decltype(v)>;
         const FileNode n = fn[key];
         if (!n.empty()) {
             if (!n.isInt() && !n.isReal())
                 CV_Error(Error::StsParseError,
                          std::string("tracker parameter '") + key + "': expected a number");
-            v = static_cast<std::decay_t<decltype(v)>>((double)n);
+            const double d = (double)n;
+            // the conversion itself must be defined: finite and within the type's range
+            const double lo = std::is_same<T, bool>::value ? 0 : -1e9,
+                         hi = std::is_same<T, bool>::value ? 1 : 1e9;
+            if (!(d >= lo && d <= hi))
+                CV_Error(
+                    Error::StsParseError,
+                    format("tracker parameter '%s': %g is out of range [%g, %g]", key, d, lo, hi));
+            v = static_cast<T>(d);
         }
     };
     rd("h_bins", h_bins);
@@ -46,9 +58,42 @@ void ObjectTracker::Params::validate() const {
     if (s_bins < 1 || s_bins > 256) CV_Error(Error::StsBadArg, "s_bins: expected 1..256");
     if (!(threshold >= 0 && threshold < 1))
         CV_Error(Error::StsBadArg, "threshold: expected [0, 1)");
+    if (open_size < 0 || open_size > 255) CV_Error(Error::StsBadArg, "open_size: expected 0..255");
+    if (close_size < 0 || close_size > 255)
+        CV_Error(Error::StsBadArg, "close_size: expected 0..255");
+    if (!(window_scale > 0 && window_scale <= 100))
+        CV_Error(Error::StsBadArg, "window_scale: expected (0, 100]");
+    if (window_margin < 0 || window_margin > 100000)
+        CV_Error(Error::StsBadArg, "window_margin: expected 0..100000 pixels");
+    if (highlight_min_value < 0 || highlight_min_value > 256)
+        CV_Error(Error::StsBadArg, "highlight_min_value: expected 0..256");
+    if (highlight_max_saturation < -1 || highlight_max_saturation > 255)
+        CV_Error(Error::StsBadArg, "highlight_max_saturation: expected -1..255");
+    if (!(lost_threshold >= 0 && lost_threshold <= 1))
+        CV_Error(Error::StsBadArg, "lost_threshold: expected [0, 1]");
     if (!(model_update_rate >= 0 && model_update_rate <= 1))
         CV_Error(Error::StsBadArg, "model_update_rate: expected [0, 1]");
+    if (!(min_update_confidence >= 0 && min_update_confidence <= 1))
+        CV_Error(Error::StsBadArg, "min_update_confidence: expected [0, 1]");
     if (!(min_step > 0 && min_step <= 1)) CV_Error(Error::StsBadArg, "min_step: expected (0, 1]");
+}
+
+ObjectTracker::Params readTrackerParamsFile(const std::string& path) {
+    FileStorage fs;
+    try {
+        fs.open(path, FileStorage::READ);
+    } catch (const cv::Exception& e) {
+        CV_Error(Error::StsParseError, path + ": not a readable YAML/JSON file: " + e.err);
+    }
+    if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open the tracker parameters");
+    ObjectTracker::Params p;
+    try {
+        const FileNode n = fs["tracker"].empty() ? fs.root() : fs["tracker"];
+        p.read(n);
+    } catch (const cv::Exception& e) {
+        CV_Error(Error::StsBadArg, path + ": " + e.err);
+    }
+    return p;
 }
 
 void ObjectTracker::Params::write(FileStorage& fs) const {

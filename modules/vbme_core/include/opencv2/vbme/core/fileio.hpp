@@ -51,6 +51,12 @@ CV_EXPORTS void imwriteAtomic(const std::string& path, InputArray img,
 undecodable. @p flags as for cv::imread. */
 CV_EXPORTS Mat imreadChecked(const std::string& path, int flags = 1 /* cv::IMREAD_COLOR */);
 
+/** @brief Reads an object mask (8-bit, 255 = object; any non-zero pixel counts) such as the
+first-frame mask of `vbme track` and `vbme material-edit`. Throws cv::Exception naming the file
+when it is missing or undecodable, when its size is not @p expected_size (unless that is empty),
+or when it marks no pixel or every pixel. @return the mask as CV_8U, 0 or 255. */
+CV_EXPORTS Mat readObjectMask(const std::string& path, Size expected_size = Size());
+
 /** @brief @p p if absolute, else @p p relative to folder @p base, normalised. */
 CV_EXPORTS std::string resolvePath(const std::string& base, const std::string& p);
 /** @brief @p p relative to folder @p base if it lies below it, else @p p unchanged. */

@@ -133,6 +133,12 @@ public:
     static Ptr<ObjectTracker> create(const Params& params = Params());
 };
 
+/** @brief Reads tracker parameters from a YAML/JSON file (`vbme track --params`): the fields
+of ObjectTracker::Params at top level or under `tracker:`; others keep their defaults. Throws
+cv::Exception naming the file and the field when the file is unreadable or a value is out of
+range. */
+CV_EXPORTS ObjectTracker::Params readTrackerParamsFile(const std::string& path);
+
 //! @}
 
 }  // namespace vbme
