@@ -47,9 +47,18 @@ void runInsert(InsertOptions& o) {
     o.p.quiet = o.common.quiet;
     o.p.command_line = commandLine();
     const InsertionReport r = runInsertion(o.p);
-    std::printf("frames %d:%d of %d: %d rendered, %d already done (%.2f s/frame at %d spp)\n",
-                o.p.first, o.p.end < 0 ? r.frames_total : o.p.end, r.frames_total,
-                r.frames_rendered, r.frames_skipped, r.seconds_per_frame, r.spp);
+    if (o.p.prepare_only) {
+        std::printf(
+            "prepared %s for %d frames (%s); render them with --frames A:B and the same --work, "
+            "--scene, --video, --spp\n",
+            r.work.c_str(), r.frames_total, r.prepared_reused ? "reused" : "made now");
+        return;
+    }
+    std::printf(
+        "frames %d:%d of %d: %d rendered, %d already done, %d being rendered by another process "
+        "(%.2f s/frame at %d spp)\n",
+        o.p.first, o.p.end < 0 ? r.frames_total : o.p.end, r.frames_total, r.frames_rendered,
+        r.frames_skipped, r.frames_busy, r.seconds_per_frame, r.spp);
     std::printf(
         "stages (s): tracking %.1f, textures %.1f, albedo %.1f, lights %.1f, render %.1f, "
         "encode %.1f%s\n",
@@ -103,6 +112,10 @@ void setupInsert(CLI::App& app) {
     app.add_option("--frames", o->frames,
                    "A:B: render only frames A … B-1 (from 0; 'A:' to the end), e.g. one "
                    "machine's share of a render farm");
+    app.add_flag("--prepare-only", o->p.prepare_only,
+                 "Only prepare the work folder (camera path, textures, albedo, lights, frame "
+                 "settings), render nothing: a render farm prepares once, then its tasks run "
+                 "--frames A:B (see vbme farm slurm)");
     app.add_option("--work", o->p.work, "Work folder (default: <out without extension>_work)");
     app.add_flag("--keep-exr", o->p.keep_exr,
                  "Keep per-frame multi-layer OpenEXRs (R,G,B composite, obj, noobj, diff, mask) "

@@ -14,7 +14,7 @@ namespace {
 
 struct TrackCameraOptions {
     std::string video, scene, out, work, overlay, colmap = "colmap";
-    int stride = 1, threads = 2, overlap = 10, seed = 0;
+    int stride = 1, threads = 2, overlap = 10, seed = 0, colmap_timeout = 0;
     bool mean_scale = false, no_refine = false;
     double smooth = 0;
     std::string blender;
@@ -43,6 +43,7 @@ void runTrackCamera(const TrackCameraOptions& o) {
     opt.refine = !o.no_refine;
     opt.smooth_sigma = o.smooth;
     opt.colmap.executable = o.colmap;
+    opt.colmap.timeout = o.colmap_timeout;
     opt.colmap.threads = o.threads;
     opt.colmap.overlap = o.overlap;
     opt.colmap.random_seed = o.seed;
@@ -123,6 +124,10 @@ void setupTrackCamera(CLI::App& app) {
     app.add_option("--overlay", o->overlay,
                    "Also write a video with the room box drawn with each frame's camera");
     app.add_option("--colmap", o->colmap, "The colmap program")->capture_default_str();
+    app.add_option("--colmap-timeout", o->colmap_timeout,
+                   "Seconds each COLMAP step may run before it is stopped as hung (0: no limit)")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
     app.add_option("--threads", o->threads, "Threads for feature extraction and matching")
         ->check(CLI::Range(1, 256))
         ->capture_default_str();

@@ -3,6 +3,7 @@
 #include "opencv2/vbme/calib/colmap.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -107,6 +108,8 @@ ColmapModel ColmapModel::readText(const std::string& dir) {
         if (!(s >> im.id >> q[0] >> q[1] >> q[2] >> q[3] >> im.t[0] >> im.t[1] >> im.t[2] >>
               im.camera_id >> im.name))
             parseError(img_path, n, "expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME");
+        if (!(norm(q) > 0) || !std::isfinite(norm(q)))
+            parseError(img_path, n, "the quaternion QW QX QY QZ is zero or not finite");
         im.R = rotationFromQuaternion(q);
         std::string pts;
         if (std::getline(f, pts)) {
@@ -211,14 +214,22 @@ void runStep(const ColmapOptions& o, const std::string& step, const std::string&
         std::ofstream l(log, std::ios::app);
         l << "\n==== colmap " << step << " " << args << "\n";
     }
-    const std::string cmd = "QT_QPA_PLATFORM=offscreen " + shellQuote(o.executable) + " " + step +
-                            " " + args + " >> " + shellQuote(log) + " 2>&1";
+    // a hung step is stopped by coreutils' timeout (TERM, then KILL 5 s later): exit 124
+    const std::string limit =
+        o.timeout > 0 ? "timeout -k 5 " + std::to_string(o.timeout) + " " : std::string();
+    const std::string cmd = "QT_QPA_PLATFORM=offscreen " + limit + shellQuote(o.executable) + " " +
+                            step + " " + args + " >> " + shellQuote(log) + " 2>&1";
     const int status = std::system(cmd.c_str());
     const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     if (code == 127)
         CV_Error(Error::StsError, "the colmap program ('" + o.executable +
                                       "') was not found: install Debian's colmap "
                                       "package or give its path");
+    if (o.timeout > 0 && (code == 124 || code == 137))
+        CV_Error(Error::StsError,
+                 format("COLMAP %s did not finish within %d s (hung?) and was stopped; its output "
+                        "is in %s",
+                        step.c_str(), o.timeout, log.c_str()));
     if (code != 0)
         CV_Error(Error::StsError, format("COLMAP %s failed (exit code %d); its output is in %s",
                                          step.c_str(), code, log.c_str()));

@@ -2,13 +2,18 @@
 // vbme insert: synthetic objects in a hand-held video of a room (thesis chapter 5).
 #include "opencv2/vbme/pipeline/insertion.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -97,6 +102,60 @@ int runCapture(const std::string& cmd, std::string& output) {
         output.append(buf, n);
     const int status = ::pclose(p);
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// An advisory lock (flock) on a file of the work folder, released by the kernel when the
+// process ends, even by kill -9. Several `vbme insert` on one work folder (a render farm's
+// tasks, or the same command started twice by mistake) take the folder's lock to prepare and
+// to assemble the video, and one lock per frame while rendering it. (On NFS, Linux emulates
+// flock with POSIX locks, which the lock daemon shares between machines.)
+class FileLock {
+public:
+    FileLock() = default;
+    FileLock(const FileLock&) = delete;
+    FileLock& operator=(const FileLock&) = delete;
+    ~FileLock() { release(); }
+    // Takes the lock; with @p wait false returns false at once when another process holds it.
+    bool acquire(const std::string& path, bool wait) {
+        release();
+        fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+        if (fd_ < 0)
+            CV_Error(Error::StsError,
+                     "cannot create the lock file '" + path + "': " + std::strerror(errno));
+        int r;
+        do {
+            r = ::flock(fd_, LOCK_EX | (wait ? 0 : LOCK_NB));
+        } while (r != 0 && errno == EINTR);
+        if (r != 0) {
+            const int err = errno;
+            ::close(fd_);
+            fd_ = -1;
+            if (!wait && err == EWOULDBLOCK) return false;
+            CV_Error(Error::StsError, "cannot lock '" + path + "': " + std::strerror(err));
+        }
+        path_ = path;
+        return true;
+    }
+    void release() {
+        if (fd_ < 0) return;
+        ::flock(fd_, LOCK_UN);
+        ::close(fd_);
+        fd_ = -1;
+    }
+
+private:
+    int fd_ = -1;
+    std::string path_;
+};
+
+// Takes the work folder's lock, saying so when another process holds it.
+void lockWork(FileLock& lock, const std::string& work, bool quiet) {
+    const std::string path = (fs::path(work) / "work.lock").string();
+    if (lock.acquire(path, false)) return;
+    if (!quiet)
+        std::fprintf(stderr, "vbme: another vbme insert holds '%s': waiting for it\n",
+                     path.c_str());
+    lock.acquire(path, true);
 }
 
 std::string lowerExtension(const std::string& p) {
@@ -316,7 +375,8 @@ void InsertionReport::write(const std::string& path) const {
         FileStorage f(out.tempPath(), FileStorage::WRITE);
         if (!f.isOpened()) CV_Error(Error::StsError, "cannot write the report '" + path + "'");
         f << "frames_total" << frames_total << "frames_rendered" << frames_rendered
-          << "frames_skipped" << frames_skipped << "video_written" << (int)video_written;
+          << "frames_skipped" << frames_skipped << "frames_busy" << frames_busy << "video_written"
+          << (int)video_written;
         f << "missing_frames"
           << "[:";
         for (int m : missing)
@@ -420,6 +480,11 @@ InsertionReport runInsertion(const InsertionParams& p) {
                                     r.max[1], r.max[2]));
         }
     }
+
+    // ---- from here to the first frame, one process at a time per work folder
+    fs::create_directories(work);
+    FileLock work_lock;
+    lockWork(work_lock, work, p.quiet);
 
     // ---- camera path
     CameraPath path;
@@ -704,6 +769,12 @@ InsertionReport runInsertion(const InsertionParams& p) {
         }
     }
 
+    if (p.prepare_only) {
+        rep.write((fs::path(work) / "report.yml").string());
+        return rep;
+    }
+    work_lock.release();
+
     DifferentialRenderer::Params dp;
     dp.render = rp;
     Ptr<DifferentialRenderer> renderer = DifferentialRenderer::create(dp);
@@ -721,6 +792,18 @@ InsertionReport runInsertion(const InsertionParams& p) {
         for (int i = 0; i < end && reader.read(f); ++i) {
             if (i < first) continue;
             const std::string out_file = frameFile(work, i);
+            if (fs::exists(out_file)) {
+                ++rep.frames_skipped;
+                continue;
+            }
+            // claim the frame: another process rendering it holds its lock (skip it); a
+            // frame finished while we looked is there once we hold the lock
+            FileLock frame_lock;
+            const std::string lock_file = out_file + ".lock";
+            if (!frame_lock.acquire(lock_file, false)) {
+                ++rep.frames_busy;
+                continue;
+            }
             if (fs::exists(out_file)) {
                 ++rep.frames_skipped;
                 continue;
@@ -748,6 +831,9 @@ InsertionReport runInsertion(const InsertionParams& p) {
                 writeDifferentialExr(exrFile(work, i), im, linear, attr);
             }
             imwriteAtomic(out_file, enc);  // last: its presence means the frame is done
+            std::error_code ec;
+            fs::remove(lock_file, ec);
+            frame_lock.release();
             render_seconds += secondsSince(t0);
             ++rep.frames_rendered;
             progress.tick();
@@ -757,10 +843,13 @@ InsertionReport runInsertion(const InsertionParams& p) {
         rep.seconds_per_frame = rep.frames_rendered ? render_seconds / rep.frames_rendered : 0;
     }
 
-    // ---- the output video, when every frame is there
+    // ---- the output video, when every frame is there (one process assembles it)
+    lockWork(work_lock, work, p.quiet);
     for (int i = 0; i < n; ++i)
         if (!fs::exists(frameFile(work, i))) rep.missing.push_back(i);
-    if (rep.missing.empty()) {
+    if (rep.missing.empty() && !p.force && fs::exists(p.out)) {
+        rep.video_written = true;  // made meanwhile by another process on this work folder
+    } else if (rep.missing.empty()) {
         const auto t0 = Clock::now();
         double fps;
         bool image_seq;

@@ -83,6 +83,7 @@ struct CV_EXPORTS ColmapOptions {
     int overlap = 10;                   //!< sequential matcher: neighbours matched per frame
     std::string vocab_tree;             //!< vocabulary-tree file: enables loop detection when set
     int max_num_features = 4096;        //!< SIFT features per image
+    int timeout = 0;  //!< seconds a step may run before it is stopped as hung (0: no limit)
 };
 
 /** @brief Runs COLMAP's sparse reconstruction on the images of @p image_dir

@@ -24,12 +24,14 @@ struct CV_EXPORTS InsertionParams {
     std::string cameras;  //!< camera path YAML; empty: camera tracking is run into the work folder
     std::string out;      //!< composited video (.mp4, .mkv, .avi or %05d image pattern)
     std::string work;     //!< work folder (empty: <out without extension>_work)
-    bool has_place = false;  //!< whether @p place is given (--place u,v)
-    Point2d place;           //!< objects[0] on the floor under this frame-0 pixel
-    int spp = 0;             //!< samples per pixel (0: the scene's render.spp)
-    int first = 0;           //!< first frame to render (frames [first, end))
-    int end = -1;            //!< one past the last frame to render (−1: to the last frame)
-    bool keep_exr = false;   //!< keep per-frame multi-layer EXRs in <work>/exr
+    bool has_place = false;     //!< whether @p place is given (--place u,v)
+    Point2d place;              //!< objects[0] on the floor under this frame-0 pixel
+    int spp = 0;                //!< samples per pixel (0: the scene's render.spp)
+    int first = 0;              //!< first frame to render (frames [first, end))
+    int end = -1;               //!< one past the last frame to render (−1: to the last frame)
+    bool prepare_only = false;  //!< stop after preparing the work folder (tracking, textures,
+                                //!< albedo, lights): render farms prepare once, then split frames
+    bool keep_exr = false;      //!< keep per-frame multi-layer EXRs in <work>/exr
     std::string texture_mode = "accumulate";  //!< or "per-frame"
     std::string albedo = "irradiance";        //!< or "retinex"
     std::string lights = "nnls";              //!< or "hill-climb", "none"
@@ -49,6 +51,7 @@ struct CV_EXPORTS InsertionParams {
 struct CV_EXPORTS InsertionReport {
     int frames_total = 0;        //!< frames of the video
     int frames_rendered = 0;     //!< frames rendered by this run
+    int frames_busy = 0;         //!< frames of [first, end) another process was rendering
     int frames_skipped = 0;      //!< frames of [first, end) already in the work folder
     bool video_written = false;  //!< false when frames of the video are still missing (split runs)
     /** @brief Per stage wall seconds: tracking, textures, albedo, lights, render, encode. */
