@@ -15,6 +15,10 @@ PACKAGES=(
   colmap ffmpeg
   # command line, tests, benchmarks
   libcli11-dev libgtest-dev libgmock-dev googletest libbenchmark-dev
+  # fuzzing (scripts/fuzz.sh: clang with libFuzzer and the sanitizers' runtimes)
+  clang libclang-rt-14-dev
+  # the cluster test and `vbme farm slurm` on one machine (scripts/slurm-local.sh)
+  slurm-wlm munge
 )
 
 missing=()

@@ -1,0 +1,145 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// vbme farm slurm (doc/cluster.md): the batch scripts split the frames exactly, and on a real
+// single-node Slurm cluster (scripts/slurm-local.sh, when slurm-wlm and munge are installed
+// and we may start it) the job chain makes the same video as one machine.
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "app_insert_inputs.hpp"
+#include "vbme_test_util.hpp"
+
+namespace {
+
+using namespace vbme_test;
+namespace fs = std::filesystem;
+
+std::string farmCmd(const FaultInputs& in, const std::string& out, const std::string& extra) {
+    return std::string(VBME_EXE) + " farm slurm --video '" + in.video + "' --scene '" + in.scene +
+           "' --cameras '" + in.cameras + "' --out '" + out +
+           "' --insert-args '--lights none --albedo retinex' " + extra;
+}
+
+TEST(AppFarm, ScriptsSplitEveryFrameOnceAndRequestMoreForLargerFrames) {
+    ScratchDir dir;
+    const FaultInputs in = makeFaultInputs(dir, Size(48, 36), 7);
+    // --vbme echo: the scripts print the command each job would run
+    const std::string out = dir / "out.mkv";
+    auto r = run(farmCmd(in, out, "--tasks 3 --vbme echo"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    const std::string sd = dir / "out_work/slurm";
+    for (const char* f : {"prepare.sbatch", "render.sbatch", "assemble.sbatch", "submit.sh"})
+        EXPECT_TRUE(fs::exists(sd + "/" + f)) << f;
+    std::ifstream rs(sd + "/render.sbatch");
+    const std::string render((std::istreambuf_iterator<char>(rs)),
+                             std::istreambuf_iterator<char>());
+    EXPECT_NE(render.find("#SBATCH --array=0-2"), std::string::npos) << render;
+    EXPECT_NE(render.find("#SBATCH --requeue"), std::string::npos) << render;
+    std::set<int> covered;
+    int total = 0;
+    for (int task = 0; task < 3; ++task) {
+        r = run("SLURM_ARRAY_TASK_ID=" + std::to_string(task) + " bash " + sd + "/render.sbatch");
+        ASSERT_EQ(r.code, 0) << r.output;
+        std::smatch m;
+        ASSERT_TRUE(std::regex_search(r.output, m, std::regex("--frames (\\d+):(\\d+)")))
+            << r.output;
+        for (int i = std::stoi(m[1]); i < std::stoi(m[2]); ++i) {
+            covered.insert(i);
+            ++total;
+        }
+    }
+    EXPECT_EQ(total, 7);  // no frame twice
+    EXPECT_EQ(covered.size(), 7u);
+    r = run("bash " + sd + "/prepare.sbatch");
+    EXPECT_NE(r.output.find("--prepare-only"), std::string::npos) << r.output;
+    // refuses to overwrite the scripts without --force
+    r = run(farmCmd(in, out, "--tasks 3 --vbme echo"));
+    EXPECT_EQ(r.code, 1) << r.output;
+    // the requests grow with the frame size and the spp
+    auto requests = [&](const std::string& extra, int& minutes, int& mem) {
+        const auto rr = run(farmCmd(in, dir / "o2.mkv", "--tasks 3 --force --vbme echo " + extra));
+        EXPECT_EQ(rr.code, 0) << rr.output;
+        std::smatch m;
+        EXPECT_TRUE(std::regex_search(rr.output, m, std::regex("(\\d+) min, (\\d+) MB")))
+            << rr.output;
+        minutes = std::stoi(m[1]);
+        mem = std::stoi(m[2]);
+    };
+    int m1, mem1, m2, mem2;
+    requests("--spp 16", m1, mem1);
+    requests("--spp 4096", m2, mem2);
+    EXPECT_GT(m2, m1);
+    EXPECT_EQ(mem2, mem1);
+    // a missing scene is a usage error, a bad one names the file
+    EXPECT_EQ(run(std::string(VBME_EXE) + " farm slurm --video v --scene /nonexistent --out o "
+                                          "--tasks 2")
+                  .code,
+              2);
+}
+
+// Stops the cluster the test started, whatever happens.
+struct LocalSlurm {
+    std::string dir;
+    ~LocalSlurm() {
+        if (!dir.empty())
+            run(std::string("bash ") + VBME_SOURCE_DIR + "/scripts/slurm-local.sh stop '" + dir +
+                "'");
+    }
+};
+
+TEST(AppFarm, SlurmClusterMakesTheSameVideoAsOneMachine) {
+    ScratchDir dir;
+    LocalSlurm slurm;
+    const std::string sdir = dir / "slurm";
+    auto r = run(std::string("bash ") + VBME_SOURCE_DIR + "/scripts/slurm-local.sh start '" + sdir +
+                 "'");
+    if (r.code == 3) GTEST_SKIP() << "no Slurm cluster here: " << r.output;
+    slurm.dir = sdir;
+    ASSERT_EQ(r.code, 0) << r.output;
+    const std::string conf = sdir + "/slurm.conf";
+    const FaultInputs in = makeFaultInputs(dir, Size(48, 36), 6);
+    // one machine
+    const std::string ref = dir / "ref.mkv";
+    const double t_one = secondsOf([&] { r = run(insertCmd(in, ref, dir / "ref_work")); });
+    ASSERT_EQ(r.code, 0) << r.output;
+    // the cluster: prepare, 3 array tasks, assemble
+    const std::string out = dir / "farm.mkv";
+    const auto t0 = std::chrono::steady_clock::now();
+    r = run("SLURM_CONF='" + conf + "' " + farmCmd(in, out, "--tasks 3 --cpus 1 --submit"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("submitted: prepare"), std::string::npos) << r.output;
+    // wait for the queue to empty (at most two minutes)
+    double t_farm = 0;
+    for (int i = 0; i < 600; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        const auto q = run("SLURM_CONF='" + conf + "' squeue -h -o %i");
+        if (q.code == 0 && q.output.find_first_not_of(" \n") == std::string::npos) break;
+    }
+    t_farm = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::printf(
+        "one machine: %.2f s; Slurm (prepare + 3 tasks + assemble, submit to done): "
+        "%.2f s\n",
+        t_one, t_farm);
+    ASSERT_TRUE(fs::exists(out)) << "no video; job logs in " << dir / "farm_work/slurm";
+    const std::vector<Mat> got = videoFrames(out), want = videoFrames(ref);
+    ASSERT_EQ(got.size(), want.size());
+    for (size_t i = 0; i < got.size(); ++i)
+        EXPECT_TRUE(sameImage(got[i], want[i])) << "frame " << i;
+    // every task rendered its share (its log says so), none rendered a frame twice
+    int rendered = 0;
+    for (const auto& e : fs::directory_iterator(dir / "farm_work/slurm")) {
+        if (e.path().filename().string().rfind("render_", 0) != 0) continue;
+        std::ifstream f(e.path());
+        const std::string s((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+        std::smatch m;
+        if (std::regex_search(s, m, std::regex("(\\d+) rendered"))) rendered += std::stoi(m[1]);
+    }
+    EXPECT_EQ(rendered, 6);
+}
+
+}  // namespace
