@@ -309,11 +309,11 @@ Size readImageSize(const FileNode& node, const std::string& field) {
         CV_Error(Error::StsBadArg,
                  format("%s: [%.17g, %.17g] is not a positive integer size [width, height]",
                         field.c_str(), w, h));
-    if (w > kMaxImageSide || h > kMaxImageSide || w * h > kMaxImagePixels)
+    if (w > kSceneMaxImageSide || h > kSceneMaxImageSide || w * h > kSceneMaxImagePixels)
         CV_Error(Error::StsBadArg,
                  format("%s: %.17g x %.17g is too large (vbme accepts at most %d pixels a side "
                         "and %d pixels in all)",
-                        field.c_str(), w, h, kMaxImageSide, kMaxImagePixels));
+                        field.c_str(), w, h, kSceneMaxImageSide, kSceneMaxImagePixels));
     return Size((int)w, (int)h);
 }
 
@@ -451,9 +451,9 @@ static Scene readSceneImpl(const FileStorage& fs, const std::string& base) {
 
     const FileNode r = root["render"];
     if (!r.empty() && !r.isNone()) {
-        s.render.spp = (int)readIntegral(r["spp"], "render.spp", s.render.spp, 1, kMaxSpp);
-        s.render.max_depth =
-            (int)readIntegral(r["max_depth"], "render.max_depth", s.render.max_depth, 1, kMaxDepth);
+        s.render.spp = (int)readIntegral(r["spp"], "render.spp", s.render.spp, 1, kSceneMaxSpp);
+        s.render.max_depth = (int)readIntegral(r["max_depth"], "render.max_depth",
+                                               s.render.max_depth, 1, kSceneMaxDepth);
         // seeds above 2^31 are written as reals, exact up to 2^53
         s.render.seed = (uint64)readIntegral(r["seed"], "render.seed", (double)s.render.seed, 0,
                                              9007199254740992.0);

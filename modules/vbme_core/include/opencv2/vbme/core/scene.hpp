@@ -114,10 +114,10 @@ struct CV_EXPORTS Room {
 Scene, camera-path and annotation files asking for more are refused with a message (a typo
 such as a 10⁶ × 10⁶ image or 10⁹ samples per pixel would otherwise allocate or run for ever).
 @{ */
-constexpr int kMaxImageSide = 32768;      //!< width or height, pixels
-constexpr int kMaxImagePixels = 1 << 27;  //!< width × height (134 Mpixel)
-constexpr int kMaxSpp = 1 << 16;          //!< render.spp
-constexpr int kMaxDepth = 1024;           //!< render.max_depth
+constexpr int kSceneMaxImageSide = 32768;      //!< width or height, pixels
+constexpr int kSceneMaxImagePixels = 1 << 27;  //!< width × height (134 Mpixel)
+constexpr int kSceneMaxSpp = 1 << 16;          //!< render.spp
+constexpr int kSceneMaxDepth = 1024;           //!< render.max_depth
 /** @} */
 
 /** @brief Render settings of the scene file. */
@@ -167,8 +167,8 @@ flow sequences. On error they throw cv::Exception naming @p field.
 CV_EXPORTS Vec3d readVec3(const FileNode& node, const std::string& field);
 /** @brief Reads a rows×cols matrix of doubles. */
 CV_EXPORTS Mat readMatrix(const FileNode& node, int rows, int cols, const std::string& field);
-/** @brief Reads an image size `[width, height]`: positive integers within kMaxImageSide and
-kMaxImagePixels. */
+/** @brief Reads an image size `[width, height]`: positive integers within kSceneMaxImageSide and
+kSceneMaxImagePixels. */
 CV_EXPORTS Size readImageSize(const FileNode& node, const std::string& field);
 /** @brief Writes a 3-vector as a flow sequence under @p key. */
 CV_EXPORTS void writeVec3(FileStorage& fs, const std::string& key, const Vec3d& v);
