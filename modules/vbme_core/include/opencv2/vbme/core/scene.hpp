@@ -167,8 +167,8 @@ flow sequences. On error they throw cv::Exception naming @p field.
 CV_EXPORTS Vec3d readVec3(const FileNode& node, const std::string& field);
 /** @brief Reads a rows×cols matrix of doubles. */
 CV_EXPORTS Mat readMatrix(const FileNode& node, int rows, int cols, const std::string& field);
-/** @brief Reads an image size `[width, height]`: positive integers within kSceneMaxImageSide and
-kSceneMaxImagePixels. */
+/** @brief Reads an image size `[width, height]`: positive integers within
+kSceneMaxImageSide and kSceneMaxImagePixels. */
 CV_EXPORTS Size readImageSize(const FileNode& node, const std::string& field);
 /** @brief Writes a 3-vector as a flow sequence under @p key. */
 CV_EXPORTS void writeVec3(FileStorage& fs, const std::string& key, const Vec3d& v);
