@@ -98,6 +98,9 @@ FrameAnnotation FrameAnnotation::read(const std::string& path) {
     } catch (const cv::Exception& e) {
         if (e.code == Error::StsObjectNotFound) throw;
         CV_Error(Error::StsParseError, path + ": cannot parse the annotation file: " + e.err);
+    } catch (const std::exception& e) {  // OpenCV's parsers may throw std::length_error
+        CV_Error(Error::StsParseError,
+                 path + ": cannot parse the annotation file: " + std::string(e.what()));
     }
     if (!fs.isOpened())
         CV_Error(Error::StsObjectNotFound, path + ": cannot open the annotation file");

@@ -236,6 +236,9 @@ Material readMaterialFile(const std::string& path) {
         fs.open(path, FileStorage::READ);
     } catch (const cv::Exception& e) {
         CV_Error(Error::StsParseError, path + ": not a readable YAML/JSON file: " + e.err);
+    } catch (const std::exception& e) {  // OpenCV's parsers may throw std::length_error
+        CV_Error(Error::StsParseError,
+                 path + ": not a readable YAML/JSON file: " + std::string(e.what()));
     }
     if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open material file");
     FileNode n = fs["material"];
@@ -487,6 +490,9 @@ Scene Scene::read(const std::string& path) {
         fs.open(path, FileStorage::READ);
     } catch (const cv::Exception& e) {
         CV_Error(Error::StsParseError, path + ": not a readable YAML/JSON file: " + e.err);
+    } catch (const std::exception& e) {  // OpenCV's parsers may throw std::length_error
+        CV_Error(Error::StsParseError,
+                 path + ": not a readable YAML/JSON file: " + std::string(e.what()));
     }
     if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open scene file");
     try {

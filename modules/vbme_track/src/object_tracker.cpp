@@ -84,6 +84,9 @@ ObjectTracker::Params readTrackerParamsFile(const std::string& path) {
         fs.open(path, FileStorage::READ);
     } catch (const cv::Exception& e) {
         CV_Error(Error::StsParseError, path + ": not a readable YAML/JSON file: " + e.err);
+    } catch (const std::exception& e) {  // OpenCV's parsers may throw std::length_error
+        CV_Error(Error::StsParseError,
+                 path + ": not a readable YAML/JSON file: " + std::string(e.what()));
     }
     if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open the tracker parameters");
     ObjectTracker::Params p;
