@@ -209,9 +209,9 @@ TEST(AppFaults, TwoProcessesOnOneWorkFolderRenderEachFrameOnce) {
 }
 
 // RLIMIT_FSIZE stands for a full disk: writes beyond the limit fail with EFBIG (SIGXFSZ is
-// ignored, as a shell's trap '' XFSZ passes on through exec).
+// ignored, as a shell's trap '' XFSZ passes on through exec). bash counts -f in KiB.
 std::string limited(const std::string& cmd, int kbytes) {
-    return "sh -c \"trap '' XFSZ; ulimit -f " + std::to_string(kbytes) + "; exec " + cmd + "\"";
+    return "bash -c \"trap '' XFSZ; ulimit -f " + std::to_string(kbytes) + "; exec " + cmd + "\"";
 }
 
 TEST(AppFaults, DiskFullWhileWritingIsAClearErrorAndTheWorkFolderResumes) {
@@ -220,12 +220,26 @@ TEST(AppFaults, DiskFullWhileWritingIsAClearErrorAndTheWorkFolderResumes) {
     auto r = vbme_test::run(insertCmd(in, dir / "ref.mkv", dir / "ref_work"));
     ASSERT_EQ(r.code, 0) << r.output;
     const std::vector<Mat> want = videoFrames(dir / "ref.mkv");
-    // (a) the per-frame EXRs (--keep-exr, ~100 kB each) do not fit, the PNG frames (~3 kB) do
+    // limits between the sizes of the files: a frame PNG fits in `fits`, not in `tight`; the
+    // per-frame EXRs (~20 float channels) and the video (all frames) do not fit in `fits`
+    uintmax_t png_min = UINTMAX_MAX, png_max = 0;
+    for (int i = 0; i < 3; ++i) {
+        const uintmax_t s = fs::file_size(dir / format("ref_work/frames/frame_%05d.png", i));
+        png_min = std::min(png_min, s);
+        png_max = std::max(png_max, s);
+    }
+    const int fits = (int)(png_max / 1024) + 1, tight = (int)(png_min / 1024);
+    const uintmax_t video_size = fs::file_size(dir / "ref.mkv");
+    std::printf("frame PNGs %ju..%ju bytes, video %ju bytes: limits %d KiB and %d KiB\n", png_min,
+                png_max, video_size, fits, tight);
+    ASSERT_GE(tight, 1) << "frames too small to test a full disk while writing them";
+    ASSERT_GT(video_size, (uintmax_t)fits * 1024) << "the video would fit";
+    // (a) the per-frame EXRs (--keep-exr) do not fit, the PNG frames do
     {
         const std::string out = dir / "exr.mkv", work = dir / "exr_work";
         r = vbme_test::run(insertCmd(in, out, work, "--prepare-only"));
         ASSERT_EQ(r.code, 0) << r.output;
-        r = vbme_test::run(limited(insertCmd(in, out, work, "--keep-exr"), 24));
+        r = vbme_test::run(limited(insertCmd(in, out, work, "--keep-exr"), fits));
         EXPECT_EQ(r.code, 1) << r.output;
         EXPECT_NE(r.output.find(".exr"), std::string::npos) << r.output;
         std::printf("EXR on a full disk: %s", r.output.c_str());
@@ -238,12 +252,12 @@ TEST(AppFaults, DiskFullWhileWritingIsAClearErrorAndTheWorkFolderResumes) {
         for (size_t i = 0; i < v.size(); ++i)
             EXPECT_TRUE(sameImage(v[i], want[i])) << "frame " << i;
     }
-    // (b) the frames (PNG, ~3 kB) do not fit: the first one fails, none is left half written
+    // (b) the frame PNGs do not fit: the first fails, none is left half written
     {
         const std::string out = dir / "png.mkv", work = dir / "png_work";
         r = vbme_test::run(insertCmd(in, out, work, "--prepare-only"));
         ASSERT_EQ(r.code, 0) << r.output;
-        r = vbme_test::run(limited(insertCmd(in, out, work), 1));
+        r = vbme_test::run(limited(insertCmd(in, out, work), tight));
         EXPECT_EQ(r.code, 1) << r.output;
         EXPECT_NE(r.output.find("frame_00000.png"), std::string::npos) << r.output;
         std::printf("frame PNG on a full disk: %s", r.output.c_str());
@@ -256,10 +270,12 @@ TEST(AppFaults, DiskFullWhileWritingIsAClearErrorAndTheWorkFolderResumes) {
         for (size_t i = 0; i < v.size(); ++i)
             EXPECT_TRUE(sameImage(v[i], want[i])) << "frame " << i;
     }
-    // (c) the frames fit, the video does not
+    // (c) the frames fit, the video does not: frames 0-1 first, then frame 2 and the video
     {
         const std::string out = dir / "video.mkv", work = dir / "video_work";
-        r = vbme_test::run(limited(insertCmd(in, out, work), 6));
+        r = vbme_test::run(insertCmd(in, out, work, "--frames 0:2"));
+        ASSERT_EQ(r.code, 0) << r.output;
+        r = vbme_test::run(limited(insertCmd(in, out, work, "--frames 2:3"), fits));
         EXPECT_EQ(r.code, 1) << r.output;
         std::printf("video on a full disk: %s", r.output.c_str());
         EXPECT_FALSE(fs::exists(out)) << "a partial video under the output name";
