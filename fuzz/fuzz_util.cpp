@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -12,7 +13,9 @@ namespace vbme_fuzz {
 
 const std::string& scratchDir() {
     static const std::string dir = [] {
-        const fs::path d = fs::temp_directory_path() / ("vbme_fuzz_" + std::to_string(::getpid()));
+        const char* tmp = std::getenv("TMPDIR");
+        const fs::path base = tmp && *tmp ? fs::path(tmp) : fs::path("/tmp");
+        const fs::path d = base / ("vbme_fuzz_" + std::to_string(::getpid()));
         fs::create_directories(d);
         return d.string();
     }();

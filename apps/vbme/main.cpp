@@ -62,11 +62,6 @@ int vbme_app::vbmeMain(int argc, char** argv, bool parse_only) {
     for (const auto& c : table) {
         CLI::App* sub = app.add_subcommand(c.name, c.summary);
         c.setup(*sub);
-        if (parse_only) {  // options parsed and checked, nothing run
-            sub->callback([] {});
-            for (CLI::App* nested : sub->get_subcommands({}))
-                nested->callback([] {});
-        }
     }
 
     if (argc > 1 && argv[1][0] != '-') {
@@ -82,8 +77,15 @@ int vbme_app::vbmeMain(int argc, char** argv, bool parse_only) {
             return 2;
         }
     }
+    // parse only: the root's parse-complete callback runs after every option is parsed and
+    // checked and before any command's callback (replacing the commands' callbacks would free
+    // the option structures they own)
+    struct ParseOnlyDone {};
+    if (parse_only) app.parse_complete_callback([] { throw ParseOnlyDone{}; });
     try {
         app.parse(argc, argv);
+    } catch (const ParseOnlyDone&) {
+        return 0;
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
     } catch (const CLI::CallForAllHelp& e) {

@@ -28,6 +28,14 @@ Mat readMatrix(const FileNode& node, int rows, int cols, const std::string& fiel
                                            "x" + std::to_string(cols) + " matrix)");
     Mat m;
     if (node.isMap()) {
+        // the header first: OpenCV allocates rows x cols before it reads the data, so a typo
+        // in rows or cols could ask for gigabytes
+        const FileNode nr = node["rows"], nc = node["cols"];
+        if (!nr.isInt() || !nc.isInt() || (int)nr < 1 || (int)nc < 1 ||
+            (int64)(int)nr * (int)nc != (int64)rows * cols)
+            CV_Error(Error::StsParseError,
+                     format("%s: expected a %dx%d !!opencv-matrix (rows: %d, cols: %d)",
+                            field.c_str(), rows, cols, rows, cols));
         try {
             node >> m;
         } catch (const cv::Exception&) {
