@@ -117,8 +117,9 @@ TEST(AppFarm, SlurmClusterMakesTheSameVideoAsOneMachine) {
     double t_farm = 0;
     for (int i = 0; i < 600; ++i) {
         std::this_thread::sleep_for(std::chrono::milliseconds(200));
-        const auto q = run("SLURM_CONF='" + conf + "' squeue -h -o %i");
+        const auto q = run("SLURM_CONF='" + conf + "' squeue -h -o '%i %r'");
         if (q.code == 0 && q.output.find_first_not_of(" \n") == std::string::npos) break;
+        if (q.output.find("DependencyNeverSatisfied") != std::string::npos) break;  // failed
     }
     t_farm = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::printf(

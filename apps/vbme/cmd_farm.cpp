@@ -44,13 +44,14 @@ std::string absolute(const std::string& p) {
 constexpr double kCoreSecondsPerSample = 7.67 * 2 / (640.0 * 480.0 * 32.0);
 
 std::string header(const FarmOptions& o, const std::string& name, int minutes, int mem_mb, int cpus,
-                   const std::string& log) {
+                   const std::string& log, const std::string& more = "") {
     std::string h = "#!/bin/bash\n";
     h += "#SBATCH --job-name=" + name + "\n";
     h += cv::format("#SBATCH --time=%d\n#SBATCH --mem=%dM\n#SBATCH --cpus-per-task=%d\n", minutes,
                     mem_mb, cpus);
     h += "#SBATCH --output=" + log + "\n";
     if (!o.partition.empty()) h += "#SBATCH --partition=" + o.partition + "\n";
+    h += more;  // (sbatch reads #SBATCH lines only before the first command)
     h += "set -euo pipefail\n";
     return h;
 }
@@ -124,8 +125,8 @@ void runFarmSlurm(FarmOptions& o) {
                     common + threads + " --prepare-only\n");
     const std::string render = (fs::path(dir) / "render.sbatch").string();
     writeScript(render,
-                header(o, "vbme-render", minutes, mem_mb, o.cpus, dir + "/render_%A_%a.log") +
-                    cv::format("#SBATCH --array=0-%d\n#SBATCH --requeue\n", tasks - 1) +
+                header(o, "vbme-render", minutes, mem_mb, o.cpus, dir + "/render_%A_%a.log",
+                       cv::format("#SBATCH --array=0-%d\n#SBATCH --requeue\n", tasks - 1)) +
                     cv::format("# task i renders frames [i*%d/%d, (i+1)*%d/%d); a rerun (requeue, "
                                "preemption) resumes its frames\n",
                                frames, tasks, frames, tasks) +
@@ -134,12 +135,16 @@ void runFarmSlurm(FarmOptions& o) {
                                frames, tasks, frames, tasks) +
                     common + threads + " --frames \"$A:$B\"\n");
     const std::string assemble = (fs::path(dir) / "assemble.sbatch").string();
-    writeScript(assemble,
-                header(o, "vbme-assemble", 30 + frames / 60, 2048, 1, dir + "/assemble_%j.log") +
-                    "# every frame exists now: this run renders nothing and writes the video\n" +
-                    common + " --threads 1 --frames 0:1\n" + "test -e " + quote(absolute(o.out)) +
-                    " || { echo 'vbme farm: frames are missing, the video was not written' >&2; "
-                    "exit 1; }\n");
+    writeScript(
+        assemble,
+        header(o, "vbme-assemble", 30 + frames / 60, 2048, 1, dir + "/assemble_%j.log") +
+            "# the render task that finished last has usually written the video; else every\n"
+            "# frame exists now and this run renders nothing and writes it\n"
+            "if [ ! -e " +
+            quote(absolute(o.out)) + " ]; then\n  " + common + " --threads 1 --frames 0:1\nfi\n" +
+            "test -e " + quote(absolute(o.out)) +
+            " || { echo 'vbme farm: frames are missing, the video was not written' >&2; "
+            "exit 1; }\n");
     const std::string submit = (fs::path(dir) / "submit.sh").string();
     writeScript(submit,
                 "#!/bin/bash\n# Submits the three jobs, each depending on the one before.\n"
