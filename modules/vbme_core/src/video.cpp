@@ -14,7 +14,6 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
-#include <mutex>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -125,11 +124,8 @@ using FifoPtr = std::unique_ptr<AVAudioFifo, FifoDeleter>;
 // FFmpeg's own messages (per-macroblock decoding errors, encoder statistics) are silenced:
 // what matters is reported by vbme in words (VideoReader::notes()). VBME_AV_LOG=1 shows them.
 void quietLibav() {
-    static std::once_flag once;
-    std::call_once(once, [] {
-        const char* e = std::getenv("VBME_AV_LOG");
-        av_log_set_level(e && *e == '1' ? AV_LOG_INFO : AV_LOG_FATAL);
-    });
+    static const char* e = std::getenv("VBME_AV_LOG");
+    av_log_set_level(e && *e == '1' ? AV_LOG_INFO : AV_LOG_FATAL);
 }
 
 InputPtr openInput(const std::string& path) {
@@ -345,7 +341,13 @@ struct VideoReader::Impl {
     std::string codec_name;
     bool hdr = false;
     HdrConverter hdrconv;
-    int decode_errors = 0;
+    std::vector<int64_t> lost_pts;  // packets the decoder rejected
+    int unknown_lost = 0;           // frames the decoder reported lost without a time
+    std::string read_error;
+    bool end_noted = false;
+    int64_t steady_ticks = 0;  // the interval between frames so far, while it is one
+    int steady_count = 0;
+    bool steady_broken = false;
 
     struct Pending {
         Mat frame;
@@ -362,6 +364,7 @@ struct VideoReader::Impl {
     void openVideo();
     bool decodeOne();  // decodes one frame into `frame`; false at the end
     Mat convert(const AVFrame* f);
+    void repeatLost(const std::vector<int64_t>& at);
     bool fill();  // pushes the next frame(s) to the queue; false at the end
 };
 
@@ -383,6 +386,13 @@ void VideoReader::Impl::openVideo() {
     avcodec_parameters_to_context(dec.get(), st->codecpar);
     dec->thread_count = 0;
     dec->flags |= AV_CODEC_FLAG_OUTPUT_CORRUPT;
+    const AVCodecDescriptor* cd = avcodec_descriptor_get(codec->id);
+    if (cd && (cd->props & AV_CODEC_PROP_INTRA_ONLY)) {
+        // every frame stands alone: a damaged one is reported lost (and repeated) rather than
+        // concealed silently; slice threads keep the error with its packet
+        dec->err_recognition |= AV_EF_CRCCHECK | AV_EF_EXPLODE;
+        dec->thread_type = FF_THREAD_SLICE;
+    }
     const int r = avcodec_open2(dec.get(), codec, nullptr);
     if (r < 0)
         CV_Error(Error::StsError, "'" + source + "': cannot open the " + codec->name +
@@ -462,7 +472,7 @@ bool VideoReader::Impl::decodeOne() {
             return false;
         }
         if (r != AVERROR(EAGAIN)) {
-            ++decode_errors;  // the decoder goes on; lost frames show as timestamp gaps
+            ++unknown_lost;  // the decoder goes on; the frame's place shows as a timestamp gap
             continue;
         }
         if (eof_sent) {
@@ -471,9 +481,7 @@ bool VideoReader::Impl::decodeOne() {
         }
         r = av_read_frame(fmt.get(), pkt.get());
         if (r < 0) {
-            if (r != AVERROR_EOF)
-                note(format("'%s': reading stopped after frame %d: %s", source.c_str(),
-                            pos + (int)queue.size() - 1, avError(r).c_str()));
+            if (r != AVERROR_EOF) read_error = avError(r);
             avcodec_send_packet(dec.get(), nullptr);
             eof_sent = true;
             continue;
@@ -482,9 +490,32 @@ bool VideoReader::Impl::decodeOne() {
             av_packet_unref(pkt.get());
             continue;
         }
+        const int64_t ppts = pkt->pts != AV_NOPTS_VALUE ? pkt->pts : pkt->dts;
         r = avcodec_send_packet(dec.get(), pkt.get());
         av_packet_unref(pkt.get());
-        if (r < 0 && r != AVERROR(EAGAIN)) ++decode_errors;
+        if (r < 0 && r != AVERROR(EAGAIN)) {
+            if (ppts != AV_NOPTS_VALUE)
+                lost_pts.push_back(ppts);
+            else
+                ++unknown_lost;
+        }
+    }
+}
+
+void VideoReader::Impl::repeatLost(const std::vector<int64_t>& at) {
+    if (at.empty()) return;
+    const int index = pos + (int)queue.size();
+    const int n = (int)at.size();
+    const std::string msg = format(
+        "'%s': frame%s %d%s could not be decoded (damaged data); %s with a repeat of frame %d so "
+        "that later frames keep their index and time",
+        source.c_str(), n > 1 ? "s" : "", index, n > 1 ? format("-%d", index + n - 1).c_str() : "",
+        n > 1 ? "they are replaced" : "it is replaced", index - 1);
+    if (opt.strict || last.empty()) CV_Error(Error::StsError, msg);
+    note(msg);
+    for (int k = 0; k < n; ++k) {
+        damaged.push_back(index + k);
+        queue.push_back({last, (at[k] - first_pts) * av_q2d(tb)});
     }
 }
 
@@ -523,25 +554,43 @@ Mat VideoReader::Impl::convert(const AVFrame* f) {
 
 bool VideoReader::Impl::fill() {
     if (!decodeOne()) {
-        if (decode_errors > 0 && !notes.empty() &&
-            notes.back().find("undecodable") != std::string::npos)
-            return false;
-        if (decode_errors > 0) {
+        // lost frames after the last decoded one
+        std::sort(lost_pts.begin(), lost_pts.end());
+        std::vector<int64_t> tail;
+        for (int64_t p : lost_pts)
+            if (last_pts == AV_NOPTS_VALUE || p > last_pts) tail.push_back(p);
+        lost_pts.clear();
+        if (!tail.empty() && !last.empty()) {
+            repeatLost(tail);
+            return true;
+        }
+        if (unknown_lost > 0) {
             const std::string msg = format(
-                "'%s': %d undecodable packet(s); see the warnings above for the frames "
-                "affected",
-                source.c_str(), decode_errors);
-            decode_errors = 0;
+                "'%s': %d frame(s) after frame %d could not be decoded "
+                "(damaged data)",
+                source.c_str(), unknown_lost, pos - 1);
+            unknown_lost = 0;
+            if (opt.strict) CV_Error(Error::StsError, msg);
             note(msg);
         }
-        if (count > 0 && pos < count && times.size() == (size_t)pos) {
+        if (!read_error.empty()) {
+            const std::string msg =
+                format("'%s': reading stopped after frame %d: %s", source.c_str(),
+                       pos + (int)queue.size() - 1, read_error.c_str());
+            read_error.clear();
+            if (opt.strict) CV_Error(Error::StsError, msg);
+            note(msg);
+        }
+        if (count > 0 && pos + (int)queue.size() < count && !end_noted) {
+            end_noted = true;
+            const int got = pos + (int)queue.size();
             const std::string msg = format(
                 "'%s': the video ends after %d frames, the container announced %d "
                 "(truncated file?)",
-                source.c_str(), pos, count);
+                source.c_str(), got, count);
             if (opt.strict) CV_Error(Error::StsError, msg);
             note(msg);
-            count = pos;
+            count = got;
         }
         return false;
     }
@@ -549,24 +598,44 @@ bool VideoReader::Impl::fill() {
     if (pts == AV_NOPTS_VALUE)
         pts = last_pts == AV_NOPTS_VALUE ? 0 : last_pts + std::max<int64_t>(frame_ticks, 1);
     if (first_pts == AV_NOPTS_VALUE) first_pts = pts;
-    const int index = pos + (int)queue.size();
-    // frames lost entirely: a gap in a constant-rate stream
-    if (frame_ticks > 0 && last_pts != AV_NOPTS_VALUE && !last.empty() &&
-        pts - last_pts > frame_ticks * 3 / 2) {
-        const int missing = (int)((pts - last_pts + frame_ticks / 2) / frame_ticks) - 1;
-        const std::string msg = format(
-            "'%s': frame%s %d%s could not be decoded (damaged data); %s with a repeat of frame "
-            "%d so that later frames keep their index",
-            source.c_str(), missing > 1 ? "s" : "", index,
-            missing > 1 ? format("-%d", index + missing - 1).c_str() : "",
-            missing > 1 ? "they are replaced" : "it is replaced", index - 1);
-        if (opt.strict) CV_Error(Error::StsError, msg);
-        note(msg);
-        for (int k = 1; k <= missing; ++k) {
-            damaged.push_back(index + k - 1);
-            queue.push_back({last, (last_pts + k * frame_ticks - first_pts) * av_q2d(tb)});
+    // frames lost before this one: their packets failed (known times), or the decoder said so
+    // without a time (then a gap of whole frame durations in a constant-rate stream)
+    std::sort(lost_pts.begin(), lost_pts.end());
+    std::vector<int64_t> before;
+    while (!lost_pts.empty() && lost_pts.front() < pts) {
+        if (last_pts == AV_NOPTS_VALUE || lost_pts.front() > last_pts)
+            before.push_back(lost_pts.front());
+        lost_pts.erase(lost_pts.begin());
+    }
+    const int64_t gap = last_pts == AV_NOPTS_VALUE ? 0 : pts - last_pts;
+    if (before.empty() && unknown_lost > 0 && frame_ticks > 0 && last_pts != AV_NOPTS_VALUE &&
+        gap > frame_ticks * 3 / 2) {
+        const int missing =
+            std::min<int>(unknown_lost, (int)((gap + frame_ticks / 2) / frame_ticks) - 1);
+        for (int k = 1; k <= missing; ++k)
+            before.push_back(last_pts + k * frame_ticks);
+        unknown_lost = 0;
+    } else if (before.empty() && last_pts != AV_NOPTS_VALUE && !steady_broken &&
+               steady_count >= 4 && steady_ticks > 0) {
+        // packets lost before the decoder saw them (e.g. a damaged Matroska block the demuxer
+        // skipped): in a stream whose frames have so far come at one interval, a gap of a whole
+        // multiple of it
+        const int64_t m = (gap + steady_ticks / 2) / steady_ticks;
+        if (m >= 2 && m <= 10 && std::llabs(gap - m * steady_ticks) <= m)
+            for (int64_t k = 1; k < m; ++k)
+                before.push_back(last_pts + k * steady_ticks);
+    }
+    if (last_pts != AV_NOPTS_VALUE && before.empty()) {
+        if (steady_count == 0) {
+            steady_ticks = gap;
+            steady_count = 1;
+        } else if (std::llabs(gap - steady_ticks) <= 1) {
+            ++steady_count;
+        } else {
+            steady_broken = true;
         }
     }
+    repeatLost(before);
     const int my_index = pos + (int)queue.size();
     if (frame->decode_error_flags || (frame->flags & AV_FRAME_FLAG_CORRUPT)) {
         const std::string msg =
@@ -935,6 +1004,7 @@ void VideoSink::Impl::openEncoder(bool deep_frames) {
         av_opt_set(enc->priv_data, "profile", "hq", 0);
     } else if (c == "ffv1") {
         enc->level = 3;
+        enc->gop_size = 1;  // every frame a keyframe: damage stays in its frame
         av_opt_set(enc->priv_data, "slicecrc", "1", 0);
     }
     if (oc->oformat->flags & AVFMT_GLOBALHEADER) enc->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
@@ -1157,7 +1227,7 @@ void VideoSink::Impl::pumpAudio(double until, bool final) {
         const double dur = apkt->duration * av_q2d(t->in_tb);
         if (!final && start >= until) break;  // held for later
         has_held = false;
-        if (start + dur <= 0 || (final && start >= next_end)) {
+        if (start + dur < 0 || (final && start >= next_end)) {
             av_packet_unref(apkt.get());  // before the first frame or after the last
             continue;
         }
