@@ -369,9 +369,10 @@ TEST(CoreVideoAv, AudioIsCarried) {
                 EXPECT_EQ(packets_in,
                           md5Of("ffmpeg -v error -i " + o + " -map 0:a -c copy -f md5 -"))
                     << in << " -> " << out;
-                if (in.substr(4) == out.substr(3))
+                if (in.substr(4) == out.substr(3)) {
                     EXPECT_EQ(samples_in, md5Of("ffmpeg -v error -i " + o + " -map 0:a -f md5 -"))
                         << in << " -> " << out;
+                }
             }
             const double d_out = audioSeconds(o);
             std::printf("%s -> %s: audio %s, %.4f s -> %.4f s\n", in.c_str(), out.c_str(),
@@ -420,9 +421,11 @@ TEST(CoreVideoAv, DamagedPacketsAreNamedNotShifted) {
         if (!damaged) {
             // its own frame, not a neighbour's
             const double own = norm(f, frames[i], NORM_L1);
-            for (int j : {i - 1, i + 1})
-                if (j >= 0 && j < n)
+            for (int j : {i - 1, i + 1}) {
+                if (j >= 0 && j < n) {
                     EXPECT_LT(own, norm(f, frames[j], NORM_L1)) << "frame " << i << " vs " << j;
+                }
+            }
             EXPECT_LT(own / f.total() / 3, 4.0) << "undamaged frame " << i;
         }
         ++i;

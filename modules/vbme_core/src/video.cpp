@@ -1033,7 +1033,7 @@ void VideoSink::Impl::openEncoder(bool deep_frames) {
     AVDictionary* mux = nullptr;
     const std::string ext = lower(fs::path(path).extension().string());
     if (ext == ".mp4" || ext == ".mov" || ext == ".m4v")
-        av_dict_set(&mux, "movflags", "+faststart", 0);
+        av_dict_set(&mux, "movflags", "+faststart+use_metadata_tags", 0);
     r = avformat_write_header(oc.get(), &mux);
     av_dict_free(&mux);
     if (r < 0) CV_Error(Error::StsError, "cannot write '" + path + "': " + avError(r));
@@ -1395,6 +1395,27 @@ void VideoSink::close() {
 
 int VideoSink::count() const {
     return impl_->count;
+}
+
+VideoSinkOptions sinkOptionsFrom(const VideoReader& in, const std::string& out_path,
+                                 const VideoSinkOptions& base) {
+    VideoSinkOptions o = base;
+    const bool out_video = out_path.find('%') == std::string::npos;
+    if (in.isImageSequence() || !out_video) return o;
+    if (o.audio_from.empty() && in.audioStreams() > 0) o.audio_from = in.source();
+    if (o.time_base[0] <= 0 || o.time_base[1] <= 0) o.time_base = in.timeBase();
+    const VideoColorInfo c = in.colorInfo();
+    if (!c.isHdr()) {
+        if (c.primaries != AVCOL_PRI_UNSPECIFIED && c.primaries != AVCOL_PRI_RESERVED0)
+            o.color.primaries = c.primaries;
+        if (c.transfer != AVCOL_TRC_UNSPECIFIED && c.transfer != AVCOL_TRC_RESERVED0)
+            o.color.transfer = c.transfer;
+        if (c.matrix != AVCOL_SPC_UNSPECIFIED && c.matrix != AVCOL_SPC_RGB)
+            o.color.matrix = c.matrix;
+    }
+    if (!in.conversion().empty())
+        o.metadata.emplace_back("comment", "vbme: input " + in.conversion());
+    return o;
 }
 
 }  // namespace vbme

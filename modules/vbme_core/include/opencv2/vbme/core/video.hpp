@@ -211,6 +211,18 @@ private:
     std::unique_ptr<Impl> impl_;
 };
 
+/** @brief @p base completed for writing, to @p out_path, frames read from @p in.
+
+Sets what the output should carry from the input: its audio (`audio_from`, when @p in is a
+video file with audio and @p out_path a video file), its colour tags (the input's primaries,
+transfer and matrix when the input is SDR and tagged; vbme's BT.709/sRGB default after an HDR
+conversion), its time base (so that VideoSink::write(frame, in.timestamp()) keeps every
+timestamp to the tick), and a `comment` naming the input's conversion, if any. Fields of
+@p base already set (a non-empty audio_from, a time base) are kept.
+*/
+CV_EXPORTS VideoSinkOptions sinkOptionsFrom(const VideoReader& in, const std::string& out_path,
+                                            const VideoSinkOptions& base = VideoSinkOptions());
+
 /** @brief Converts one HDR pixel value to vbme's working space, as VideoReader does.
 
 @p rgb2020 holds non-linear R'G'B' in [0, 1] (BT.2020 primaries) encoded with @p transfer (16 PQ
