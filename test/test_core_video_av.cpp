@@ -335,51 +335,52 @@ double audioSeconds(const std::string& file) {
 TEST(CoreVideoAv, AudioIsCarried) {
     if (!haveFfmpeg()) GTEST_SKIP() << "ffmpeg program not installed";
     vbme_test::ScratchDir tmp;
-    // a 1 s clip with a 440 Hz tone, AAC in MP4 and PCM in MKV
+    // a 1 s clip with a 440 Hz tone, AAC in MP4 and PCM in MKV; carried into MP4 (AAC:
+    // copied, same decoded samples; PCM: re-encoded to AAC, same length) and MKV (AAC copied)
+    struct Case {
+        std::string in, out;
+        bool copied;
+    };
+    const std::vector<Case> cases = {{"tone.mp4", "out.mp4", true},
+                                     {"tone.mp4", "out.mkv", true},
+                                     {"tone.mkv", "out.mp4", false}};
     for (const std::string in : {"tone.mp4", "tone.mkv"}) {
-        const std::string acodec = in == "tone.mp4" ? "aac" : "pcm_s16le";
         auto r = vbme_test::run(
             "ffmpeg -v error -y -f lavfi -i testsrc2=size=64x48:rate=10 "
             "-f lavfi -i sine=frequency=440:duration=1 -t 1 "
             "-c:v libx264 -crf 20 -c:a " +
-            acodec + " " + (tmp / in));
+            std::string(in == "tone.mp4" ? "aac " : "pcm_s16le ") + (tmp / in));
         ASSERT_EQ(r.code, 0) << r.output;
-        const std::string packets_in =
-            md5Of("ffmpeg -v error -i " + (tmp / in) + " -map 0:a -c copy -f md5 -");
-        const std::string samples_in =
-            md5Of("ffmpeg -v error -i " + (tmp / in) + " -map 0:a -f md5 -");
-        const double d_in = audioSeconds(tmp / in);
-        for (const std::string out : {"out.mp4", "out.mkv"}) {
-            const std::string o = tmp / ("from_" + in + "_" + out);
-            {
-                VideoReader rd(tmp / in);
-                EXPECT_EQ(rd.audioStreams(), 1);
-                VideoSinkOptions so;
-                so.audio_from = tmp / in;
-                VideoSink sink(o, rd.fps(), rd.frameSize(), so);
-                Mat f;
-                while (rd.read(f))
-                    sink.write(f, rd.timestamp());
-                sink.close();
+    }
+    for (const Case& c : cases) {
+        const std::string in = tmp / c.in, o = tmp / ("from_" + c.in + "_" + c.out);
+        {
+            VideoReader rd(in);
+            EXPECT_EQ(rd.audioStreams(), 1);
+            VideoSinkOptions so;
+            so.audio_from = in;
+            VideoSink sink(o, rd.fps(), rd.frameSize(), so);
+            Mat f;
+            while (rd.read(f))
+                sink.write(f, rd.timestamp());
+            sink.close();
+        }
+        VideoReader back(o);
+        EXPECT_EQ(back.audioStreams(), 1);
+        if (c.copied) {
+            EXPECT_EQ(md5Of("ffmpeg -v error -i " + in + " -map 0:a -c copy -f md5 -"),
+                      md5Of("ffmpeg -v error -i " + o + " -map 0:a -c copy -f md5 -"))
+                << c.in << " -> " << c.out;
+            if (c.out == "out.mp4") {
+                EXPECT_EQ(md5Of("ffmpeg -v error -i " + in + " -map 0:a -f md5 -"),
+                          md5Of("ffmpeg -v error -i " + o + " -map 0:a -f md5 -"));
             }
-            // codec-copied: the same packets; same container: the same decoded samples too;
-            // PCM cannot go into MP4 and is re-encoded to AAC (then only the length is checked)
-            const bool copied = !(acodec == "pcm_s16le" && out == "out.mp4");
-            if (copied) {
-                EXPECT_EQ(packets_in,
-                          md5Of("ffmpeg -v error -i " + o + " -map 0:a -c copy -f md5 -"))
-                    << in << " -> " << out;
-                if (in.substr(4) == out.substr(3)) {
-                    EXPECT_EQ(samples_in, md5Of("ffmpeg -v error -i " + o + " -map 0:a -f md5 -"))
-                        << in << " -> " << out;
-                }
-            }
-            const double d_out = audioSeconds(o);
-            std::printf("%s -> %s: audio %s, %.4f s -> %.4f s\n", in.c_str(), out.c_str(),
-                        copied ? "codec-copied" : "re-encoded to AAC", d_in, d_out);
-            EXPECT_NEAR(d_out, d_in, copied ? 0.03 : 0.05);  // an AAC frame is 23 ms
-            VideoReader back(o);
-            EXPECT_EQ(back.audioStreams(), 1);
+            std::printf("%s -> %s: audio packets copied\n", c.in.c_str(), c.out.c_str());
+        } else {
+            const double d_in = audioSeconds(in), d_out = audioSeconds(o);
+            std::printf("%s -> %s: audio re-encoded to AAC, %.4f s -> %.4f s\n", c.in.c_str(),
+                        c.out.c_str(), d_in, d_out);
+            EXPECT_NEAR(d_out, d_in, 0.05);  // AAC frames are 23 ms
         }
     }
 }
@@ -545,4 +546,25 @@ TEST(CoreVideoAv, CodecsAndSixteenBitSequences) {
             VideoSink s(tmp / "x.mp4", 10, size, o);
         },
         cv::Exception);
+}
+
+TEST(CoreVideoAv, AviCountsFrames) {
+    // AVI has one tick per frame: five frames stay five frames at their times
+    vbme_test::ScratchDir tmp;
+    const Size size(32, 24);
+    {
+        VideoSink s(tmp / "c.avi", 12.5, size);
+        for (int i = 0; i < 5; ++i)
+            s.write(Mat(size, CV_8UC3, Scalar(10 * i, 20, 30)));
+        s.close();
+    }
+    VideoReader r(tmp / "c.avi");
+    Mat f;
+    int n = 0;
+    while (r.read(f)) {
+        EXPECT_NEAR(r.timestamp(), n / 12.5, 1e-6);
+        EXPECT_EQ(f.at<Vec3b>(0, 0), Vec3b(10 * n, 20, 30));
+        ++n;
+    }
+    EXPECT_EQ(n, 5);
 }

@@ -1012,6 +1012,8 @@ void VideoSink::Impl::openEncoder(bool deep_frames) {
     AVRational tb = opt.time_base[0] > 0 && opt.time_base[1] > 0
                         ? AVRational{opt.time_base[0], opt.time_base[1]}
                         : AVRational{1, 90000};
+    if (lower(fs::path(path).extension().string()) == ".avi")
+        tb = av_inv_q(av_d2q(fps, 100000));  // AVI counts frames: its tick is one frame
     enc->time_base = tb;
     enc->framerate = av_d2q(fps, 100000);
     enc->thread_count = 0;
