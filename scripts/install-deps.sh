@@ -13,6 +13,8 @@ PACKAGES=(
   libembree-dev embree-tools libtbb-dev libopenexr-dev libassimp-dev
   # camera tracking (the colmap program) and video
   colmap ffmpeg
+  # video IO in vbme_core (FFmpeg's libraries)
+  libavformat-dev libavcodec-dev libswscale-dev libavutil-dev libswresample-dev
   # command line, tests, benchmarks
   libcli11-dev libgtest-dev libgmock-dev googletest libbenchmark-dev
   # fuzzing (scripts/fuzz.sh: clang with libFuzzer and the sanitizers' runtimes)

@@ -17,6 +17,7 @@ namespace {
 struct DemoOptions {
     std::string out = "vbme-demo";
     std::string part = "all";
+    cv::vbme::VideoSinkOptions encode;
     int width = 640, height = 480;
     int frames = 0, spp = 0;
     CommonOptions common;
@@ -39,6 +40,7 @@ void runDemo(const DemoOptions& o) {
         ctx.frames = o.frames;
         ctx.spp = o.spp;
         ctx.force = o.common.force;
+        ctx.encode = o.encode;
         fs::create_directories(ctx.dir);
         std::printf("demo: --- %s ---\n", p.name);
         const auto t0 = std::chrono::steady_clock::now();
@@ -83,6 +85,7 @@ void setupDemo(CLI::App& app) {
     app.add_option("--height", o->height, "Frame height")
         ->check(CLI::Range(64, 8192))
         ->capture_default_str();
+    addVideoOutputOptions(app, o->encode);
     addCommonOptions(app, o->common);
     app.callback([o] {
         applyCommonOptions(o->common);

@@ -23,6 +23,7 @@ struct InpaintOptions {
     int radius = 6;
     bool rgb = false;
     unsigned long long seed = 0;
+    cv::vbme::VideoSinkOptions encode;
     CommonOptions common;
 };
 
@@ -83,7 +84,11 @@ void runVideo(const InpaintOptions& o) {
     vp.exemplar = exemplarParams(o);
     vp.temporal_radius = o.radius;
     cv::Ptr<cv::vbme::VideoInpainter> vi = cv::vbme::VideoInpainter::create(vp);
-    cv::vbme::VideoSink sink(o.out, reader.fps(), reader.frameSize());
+    // the input's timestamps, colour tags and audio go to the output
+    cv::vbme::VideoSink sink(o.out, reader.fps(), reader.frameSize(),
+                             cv::vbme::sinkOptionsFrom(reader, o.out, o.encode));
+    int written = 0;
+    auto put = [&](const cv::Mat& f) { sink.write(f, reader.timestamps()[written++]); };
     cv::vbme::Progress progress("inpaint", count > 0 ? count : 0);
     cv::Mat frame, filled;
     int i = 0;
@@ -100,14 +105,14 @@ void runVideo(const InpaintOptions& o) {
         vi->push(frame, mask);
         ++i;
         while (vi->pop(filled)) {
-            sink.write(filled);
+            put(filled);
             progress.tick();
         }
     }
     if (i == 0) CV_Error(cv::Error::StsError, "video '" + o.video + "' has no frames");
     vi->finish();
     while (vi->pop(filled)) {
-        sink.write(filled);
+        put(filled);
         progress.tick();
     }
     sink.close();
@@ -144,6 +149,7 @@ void setupInpaint(CLI::App& app) {
     mask->needs(image);
     video->excludes(mask)->needs(masks);
     masks->needs(video);
+    addVideoOutputOptions(app, opt->encode);
     addCommonOptions(app, opt->common);
     app.callback([opt] {
         applyCommonOptions(opt->common);

@@ -144,6 +144,7 @@ void setupInsert(CLI::App& app) {
                  "Light estimation also fits one exposure gain per frame (auto-exposure)");
     app.add_option("--threads", o->p.threads, "Worker threads (default: all cores)")
         ->check(CLI::NonNegativeNumber);
+    addVideoOutputOptions(app, o->p.encode);
     addCommonOptions(app, o->common);
     app.callback([o] {
         parseOptions(*o);

@@ -58,6 +58,7 @@ void setupMaterialEdit(CLI::App& app) {
         ->check(CLI::IsMember({"srgb", "gamma2.2", "linear"}));
     app.add_option("--samples", p.samples, "Samples per pixel for rough lobes")
         ->check(CLI::Range(1, 4096));
+    addVideoOutputOptions(app, p.encode);
     addCommonOptions(app, opt->common);
     app.callback([opt] {
         applyCommonOptions(opt->common);

@@ -15,6 +15,7 @@ struct TrackOptions {
     std::string video, mask, out, overlay, params_file;
     float threshold = -1, update_rate = -1;
     bool no_window = false, no_neutral = false;
+    cv::vbme::VideoSinkOptions encode;
     CommonOptions common;
 };
 
@@ -27,6 +28,7 @@ void runTrack(const TrackOptions& o) {
     if (o.no_window) opt.params.use_search_window = false;
     if (o.no_neutral) opt.params.neutral_highlights = false;
     opt.overlay = o.overlay;
+    opt.overlay_encode = o.encode;
     opt.force = o.common.force;
     const cv::Mat mask = readObjectMask(o.mask);
     const TrackVideoSummary s = trackVideo(o.video, mask, o.out, opt);
@@ -66,6 +68,7 @@ void setupTrack(CLI::App& app) {
                  "Search the whole frame, not a window around the last disk");
     app.add_flag("--no-neutral-highlights", o->no_neutral,
                  "Let highlights and clipped pixels vote as background (the thesis's behaviour)");
+    addVideoOutputOptions(app, o->encode);
     addCommonOptions(app, o->common);
     app.callback([o] {
         applyCommonOptions(o->common);

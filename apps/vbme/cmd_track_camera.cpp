@@ -19,6 +19,7 @@ struct TrackCameraOptions {
     double smooth = 0;
     std::string blender;
     std::string vocab_tree;
+    cv::vbme::VideoSinkOptions encode;
     CommonOptions common;
 };
 
@@ -53,7 +54,8 @@ void runTrackCamera(const TrackCameraOptions& o) {
 
     if (!o.overlay.empty()) {
         VideoReader reader(o.video);
-        VideoSink sink(o.overlay, reader.fps(), reader.frameSize());
+        VideoSink sink(o.overlay, reader.fps(), reader.frameSize(),
+                       sinkOptionsFrom(reader, o.overlay, o.encode));
         Progress progress("overlay", (int64)path.frames.size());
         Mat f;
         for (size_t i = 0; i < path.frames.size() && reader.read(f); ++i) {
@@ -62,7 +64,7 @@ void runTrackCamera(const TrackCameraOptions& o) {
                 path.frames[i].source == CameraPath::SFM ? Scalar(0, 255, 255)
                                                          : Scalar(0, 128, 255),
                 format("frame %zu  %s", i, CameraPath::sourceName(path.frames[i].source).c_str()));
-            sink.write(f);
+            sink.write(f, reader.timestamp());
             progress.tick();
         }
         progress.finish();
@@ -146,6 +148,7 @@ void setupTrackCamera(CLI::App& app) {
                    "Also write a Python script that recreates the camera track in Blender");
     app.add_flag("--mean-scale", o->mean_scale,
                  "Use the thesis's plain mean for Eq. 5.3 instead of the robust estimate");
+    addVideoOutputOptions(app, o->encode);
     addCommonOptions(app, o->common);
     app.callback([o] {
         applyCommonOptions(o->common);

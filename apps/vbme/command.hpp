@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <opencv2/vbme/core/video.hpp>
 
 namespace vbme_app {
 
@@ -39,6 +40,10 @@ struct CommonOptions {
 
 /** @brief Adds --force and --quiet to @p app, writing into @p opts. */
 void addCommonOptions(CLI::App& app, CommonOptions& opts, bool with_force = true);
+
+/** @brief Adds the video output options --codec, --crf, --pix-fmt and --bitrate to @p app,
+writing into @p opts (see cv::vbme::VideoSinkOptions). */
+void addVideoOutputOptions(CLI::App& app, cv::vbme::VideoSinkOptions& opts);
 
 /** @brief Applies the common options (turns progress off when quiet). */
 void applyCommonOptions(const CommonOptions& opts);

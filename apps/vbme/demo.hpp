@@ -10,16 +10,19 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/vbme/core/video.hpp>
+
 namespace vbme_app {
 
 /** @brief What the demo's parts share: where to write, how big, whether to overwrite. */
 struct DemoContext {
-    std::filesystem::path dir;  //!< the part's own output folder (created by the caller)
-    int width = 640;            //!< frame width of the generated clip
-    int height = 480;           //!< frame height
-    int frames = 0;             //!< number of frames (0: the part's default)
-    int spp = 0;                //!< render samples per pixel (0: the part's default)
-    bool force = false;         //!< overwrite existing outputs
+    std::filesystem::path dir;          //!< the part's own output folder (created by the caller)
+    int width = 640;                    //!< frame width of the generated clip
+    int height = 480;                   //!< frame height
+    int frames = 0;                     //!< number of frames (0: the part's default)
+    int spp = 0;                        //!< render samples per pixel (0: the part's default)
+    bool force = false;                 //!< overwrite existing outputs
+    cv::vbme::VideoSinkOptions encode;  //!< encoding of the videos written (--codec, --crf, ...)
 };
 
 /** @brief What a part reports at the end: the files to watch and one-line figures. */

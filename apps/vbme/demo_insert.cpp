@@ -142,6 +142,7 @@ DemoResult runInsertionDemo(const DemoContext& ctx) {
     ip.out = inserted;
     ip.work = (dir / "insert_work").string();
     ip.force = ctx.force;
+    ip.encode = ctx.encode;
     std::printf("demo insert: inserting the object (textures, albedo, lights, %d spp renders)\n",
                 gp.spp);
     std::fflush(stdout);
@@ -159,8 +160,8 @@ DemoResult runInsertionDemo(const DemoContext& ctx) {
     // 5. Compare with the truth where the object changes the picture; videos to watch.
     VideoReader rin(video), rtruth(seq.truthVideoPath());
     std::unique_ptr<VideoReader> rout;
-    VideoSink struth(truth_mp4, rin.fps(), gp.size),
-        scomp(compare_mp4, rin.fps(), Size(3 * gp.size.width, gp.size.height));
+    VideoSink struth(truth_mp4, rin.fps(), gp.size, ctx.encode),
+        scomp(compare_mp4, rin.fps(), Size(3 * gp.size.width, gp.size.height), ctx.encode);
     double sse_out = 0, sse_in = 0, count = 0;
     Mat fin, ftruth, fout;
     for (int i = 0; rin.read(fin) && rtruth.read(ftruth); ++i) {

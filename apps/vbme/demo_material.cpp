@@ -118,6 +118,7 @@ DemoResult runMaterialDemo(const DemoContext& ctx) {
         mp.focal = clip.focal();
         mp.intermediates = e.steps;
         mp.force = ctx.force;
+        mp.encode = ctx.encode;
         std::printf("demo material: editing the ball to %s -> %s\n", e.material, e.out.c_str());
         const MaterialEditReport r = runMaterialEdit(mp);
         r.print(stdout);

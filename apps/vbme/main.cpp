@@ -25,6 +25,24 @@ void addCommonOptions(CLI::App& app, CommonOptions& opts, bool with_force) {
     app.add_flag("-q,--quiet", opts.quiet, "Print no progress");
 }
 
+void addVideoOutputOptions(CLI::App& app, cv::vbme::VideoSinkOptions& opts) {
+    app.add_option("--codec", opts.codec,
+                   "Output codec: h264 (default for .mp4/.mov), h265, prores, ffv1 (default for "
+                   ".mkv/.avi); png (16-bit) or exr (linear half float) for an image pattern such "
+                   "as out/%05d.png")
+        ->check(CLI::IsMember({"h264", "h265", "prores", "ffv1", "png", "exr"}));
+    app.add_option("--crf", opts.crf,
+                   "Quality of h264/h265 (constant rate factor, lower is better)")
+        ->check(CLI::Range(0, 51))
+        ->capture_default_str();
+    app.add_option("--pix-fmt", opts.pix_fmt,
+                   "Pixel format of the encoded video, e.g. yuv444p, yuv420p10le (default: "
+                   "yuv420p for h264/h265, yuv422p10le for prores, bgr0 for ffv1)");
+    app.add_option("--bitrate", opts.bitrate,
+                   "h264/h265: encode at this average bit rate (bit/s) instead of the CRF")
+        ->check(CLI::PositiveNumber);
+}
+
 void applyCommonOptions(const CommonOptions& opts) {
     cv::vbme::Progress::setEnabled(!opts.quiet);
 }

@@ -84,26 +84,6 @@ struct Hasher {
     std::string hex() const { return format("%016llx", (unsigned long long)h); }
 };
 
-std::string shellQuote(const std::string& s) {
-    std::string q = "'";
-    for (char c : s)
-        q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return q + "'";
-}
-
-// Runs a shell command; returns its exit status (−1 if it could not run) and its output.
-int runCapture(const std::string& cmd, std::string& output) {
-    output.clear();
-    FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-    if (!p) return -1;
-    char buf[4096];
-    size_t n;
-    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0)
-        output.append(buf, n);
-    const int status = ::pclose(p);
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 // An advisory lock (flock) on a file of the work folder, released by the kernel when the
 // process ends, even by kill -9. Several `vbme insert` on one work folder (a render farm's
 // tasks, or the same command started twice by mistake) take the folder's lock to prepare and
@@ -156,13 +136,6 @@ void lockWork(FileLock& lock, const std::string& work, bool quiet) {
         std::fprintf(stderr, "vbme: another vbme insert holds '%s': waiting for it\n",
                      path.c_str());
     lock.acquire(path, true);
-}
-
-std::string lowerExtension(const std::string& p) {
-    std::string e = fs::path(p).extension().string();
-    for (auto& c : e)
-        c = char(std::tolower((unsigned char)c));
-    return e;
 }
 
 std::string frameFile(const std::string& work, int i) {
@@ -289,18 +262,6 @@ int readPrepared(const std::string& path, const std::string& hash, Prepared& out
     out.scene = s;
     out.lights = readEstimate(rec["lights"]);
     return 1;
-}
-
-bool hasAudio(const std::string& video, bool& probed) {
-    std::string out;
-    const int st = runCapture(
-        "ffprobe -v error -select_streams a -show_entries stream=index "
-        "-of csv=p=0 " +
-            shellQuote(video),
-        out);
-    probed = st == 0;
-    if (st != 0) return false;
-    return out.find_first_not_of(" \t\r\n") != std::string::npos;
 }
 
 }  // namespace
@@ -437,7 +398,14 @@ InsertionReport runInsertion(const InsertionParams& p) {
     int n = 0;
     Hasher video_hash;
     {
-        VideoReader reader(p.video);
+        // HDR input is converted to sRGB-encoded BT.709, which only the `srgb` response describes
+        VideoReadOptions ro;
+        if (scene.camera.response != Response::SRGB) {
+            ro.hdr = HdrPolicy::Refuse;
+            ro.purpose = "insert with camera.response " + toString(scene.camera.response) +
+                         " (HDR input is converted to sRGB-encoded frames; use response srgb)";
+        }
+        VideoReader reader(p.video, ro);
         if (reader.frameSize() != scene.image_size)
             CV_Error(Error::StsBadSize,
                      format("the scene '%s' is for %dx%d images but the video '%s' has %dx%d "
@@ -851,56 +819,19 @@ InsertionReport runInsertion(const InsertionParams& p) {
         rep.video_written = true;  // made meanwhile by another process on this work folder
     } else if (rep.missing.empty()) {
         const auto t0 = Clock::now();
-        double fps;
-        bool image_seq;
-        {
-            VideoReader reader(p.video);
-            fps = reader.fps();
-            image_seq = reader.isImageSequence();
+        // the input's timestamps, colour tags and audio are carried by the sink
+        VideoReader reader(p.video);
+        VideoSink sink(p.out, reader.fps(), scene.image_size,
+                       sinkOptionsFrom(reader, p.out, p.encode));
+        Progress progress("encode", n);
+        double t = -1;
+        for (int i = 0; i < n; ++i) {
+            t = reader.read(noArray()) ? reader.timestamp() : t + 1.0 / reader.fps();
+            sink.write(imreadChecked(frameFile(work, i), IMREAD_COLOR), t);
+            progress.tick();
         }
-        bool probed = false;
-        const bool audio =
-            !image_seq && p.out.find('%') == std::string::npos && hasAudio(p.video, probed);
-        if (!image_seq && p.out.find('%') == std::string::npos && !probed && !p.quiet)
-            std::fprintf(stderr,
-                         "vbme: warning: ffprobe did not run, so the audio of '%s' (if any) is "
-                         "not copied to '%s'\n",
-                         p.video.c_str(), p.out.c_str());
-        const std::string silent =
-            audio ? (fs::path(work) / ("video_noaudio" + lowerExtension(p.out))).string() : p.out;
-        {
-            VideoSink sink(silent, fps, scene.image_size);
-            Progress progress("encode", n);
-            for (int i = 0; i < n; ++i) {
-                sink.write(imreadChecked(frameFile(work, i), IMREAD_COLOR));
-                progress.tick();
-            }
-            progress.finish();
-            sink.close();
-        }
-        if (audio) {
-            AtomicFile out(p.out);
-            std::string log;
-            // the video stream we wrote and the input's audio, both copied; an audio codec the
-            // container cannot hold (e.g. FLAC in MP4) is re-encoded to AAC instead
-            const std::string head = "ffmpeg -nostdin -y -v error -i " + shellQuote(silent) +
-                                     " -i " + shellQuote(p.video) + " -map 0:v:0 -map 1:a ";
-            const std::string tail = " -shortest " + shellQuote(out.tempPath());
-            int st = runCapture(head + "-c copy" + tail, log);
-            if (st != 0) {
-                std::string log2;
-                st = runCapture(head + "-c:v copy -c:a aac" + tail, log2);
-                if (st != 0) log += log2;
-            }
-            while (!log.empty() && std::isspace((unsigned char)log.back()))
-                log.pop_back();
-            if (st != 0)
-                CV_Error(Error::StsError,
-                         format("ffmpeg could not add the audio of '%s' to '%s' (exit %d): %s",
-                                p.video.c_str(), p.out.c_str(), st, log.c_str()));
-            out.commit();
-            fs::remove(silent);
-        }
+        progress.finish();
+        sink.close();
         rep.video_written = true;
         rep.seconds["encode"] = secondsSince(t0);
     }

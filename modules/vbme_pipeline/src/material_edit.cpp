@@ -373,7 +373,13 @@ MaterialEditReport runMaterialEdit(const MaterialEditParams& p) {
     std::unique_ptr<EnvironmentMap> user_env;
     if (!p.env.empty()) user_env.reset(new EnvironmentMap(EnvironmentMap::load(p.env)));
 
-    VideoReader reader(p.video);
+    VideoReadOptions read_opt;
+    if (p.response != "srgb") {
+        read_opt.hdr = HdrPolicy::Refuse;
+        read_opt.purpose = "material-edit with --response " + p.response +
+                           " (HDR input is converted to sRGB-encoded frames; use --response srgb)";
+    }
+    VideoReader reader(p.video, read_opt);
     Mat frame;
     {
         StageTimer t(sec[DECODE]);
@@ -391,7 +397,7 @@ MaterialEditReport runMaterialEdit(const MaterialEditParams& p) {
     const Matx33f world_from_cam = cam_from_world.t();
 
     // ---- Outputs (temporary names until the end).
-    VideoSink sink(p.out, reader.fps(), size);
+    VideoSink sink(p.out, reader.fps(), size, sinkOptionsFrom(reader, p.out, p.encode));
     Staging staging;
     std::unique_ptr<VideoSink> bg_sink;
     if (!inter.empty()) {
@@ -533,10 +539,11 @@ MaterialEditReport runMaterialEdit(const MaterialEditParams& p) {
         }
         // Encoding runs in its own thread, overlapping the next frame's work.
         if (encoding.valid()) encoding.get();
-        encoding = std::async(
-            std::launch::async, [&, out = out8, filled, hole = it.hole, index = it.index] {
+        encoding =
+            std::async(std::launch::async, [&, out = out8, filled, hole = it.hole, index = it.index,
+                                            time = reader.timestamps()[it.index]] {
                 StageTimer t(sec[ENCODE]);
-                sink.write(out);
+                sink.write(out, time);
                 if (bg_sink) bg_sink->write(filled);
                 if (!inter.empty())
                     imwriteAtomic((staging.dir / maskFileName(index)).string(), hole);

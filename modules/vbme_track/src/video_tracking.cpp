@@ -99,7 +99,9 @@ TrackVideoSummary trackVideo(const std::string& video, InputArray _first_mask,
     summary.fps = reader.fps();
     StagingDir staging(dir);
     std::unique_ptr<VideoSink> overlay;
-    if (!opt.overlay.empty()) overlay.reset(new VideoSink(opt.overlay, reader.fps(), frame.size()));
+    if (!opt.overlay.empty())
+        overlay.reset(new VideoSink(opt.overlay, reader.fps(), frame.size(),
+                                    sinkOptionsFrom(reader, opt.overlay, opt.overlay_encode)));
     const fs::path csv_tmp = staging.path() / "track.csv";
     std::ofstream csv(csv_tmp);
     if (!csv) CV_Error(Error::StsError, "cannot write '" + csv_tmp.string() + "'");
@@ -119,7 +121,7 @@ TrackVideoSummary trackVideo(const std::string& video, InputArray _first_mask,
                       r.disk.radius, r.confidence);
         if (overlay) {
             drawTrackingOverlay(frame, r, tracker->lastSearchWindow(), i);
-            overlay->write(frame);
+            overlay->write(frame, reader.timestamp());
         }
         progress.tick();
         ++i;

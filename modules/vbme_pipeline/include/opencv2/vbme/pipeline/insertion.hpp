@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "opencv2/vbme/core/scene.hpp"
+#include "opencv2/vbme/core/video.hpp"
 #include "opencv2/vbme/render/light_estimation.hpp"
 
 namespace cv {
@@ -45,6 +46,9 @@ struct CV_EXPORTS InsertionParams {
     bool force = false;        //!< overwrite an existing --out
     bool quiet = false;        //!< no scene warnings on stderr (progress: Progress::setEnabled)
     std::string command_line;  //!< recorded in the EXR provenance attributes (optional)
+    /** Encoding of the output video (codec, quality, pixel format); the input's timestamps,
+    colour tags and audio are carried to it (cv::vbme::sinkOptionsFrom). */
+    VideoSinkOptions encode;
 };
 
 /** @brief What runInsertion() did. */

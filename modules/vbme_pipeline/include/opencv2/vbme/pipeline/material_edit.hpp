@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "opencv2/vbme/core/scene.hpp"
+#include "opencv2/vbme/core/video.hpp"
 
 namespace cv {
 namespace vbme {
@@ -64,6 +65,11 @@ struct CV_EXPORTS MaterialEditParams {
     /** Refine the tracked disk to sub-pixel accuracy against the inpainted background (the
     edge where the coverage falls through ½ along 64 rays, circle fit; changes ≤ 1.5 px). */
     bool refine_disk = true;
+    /** Encoding of the output video (codec, quality, pixel format). The input's timestamps,
+    colour tags and audio are carried to it (cv::vbme::sinkOptionsFrom). HDR input (PQ, HLG) is
+    converted to sRGB-encoded BT.709 (cv::vbme::VideoReader), which only `response` "srgb"
+    describes: with another response it is refused. */
+    VideoSinkOptions encode;
 };
 
 /** @brief What runMaterialEdit() did, with the time spent per stage. */

@@ -7,6 +7,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "opencv2/vbme/core/video.hpp"
+
 #include "opencv2/vbme/track/object_tracker.hpp"
 
 namespace cv {
@@ -24,7 +26,10 @@ CV_EXPORTS void drawTrackingOverlay(InputOutputArray frame, const ObjectTracker:
 struct CV_EXPORTS TrackVideoOptions {
     ObjectTracker::Params params;  //!< tracker settings
     std::string overlay;           //!< if set, an overlay video (or image pattern) written here
-    bool force = false;            //!< replace existing outputs
+    /** Encoding of the overlay video (codec, quality); the input's timestamps, colour tags and
+    audio are added (cv::vbme::sinkOptionsFrom). */
+    VideoSinkOptions overlay_encode;
+    bool force = false;  //!< replace existing outputs
 };
 
 /** @brief What trackVideo() did. */
