@@ -188,6 +188,39 @@ double segmentResidual(const cv::Vec4d& s, const cv::Vec3d& vp) {
     return std::abs(l[0] * s[0] + l[1] * s[1] + l[2]) / n;
 }
 
+/** The intersection of the pair of segments that most others pass through (within 1 px),
+ties broken by the smaller sum of residuals: a vanishing point that one wrong segment among
+three or more consistent ones does not move. */
+cv::Vec3d consensusVanishingPoint(const std::vector<cv::Vec4d>& segs) {
+    cv::Vec3d best(0, 0, 0);
+    int best_count = -1;
+    double best_sum = 1e300;
+    for (size_t i = 0; i < segs.size(); ++i)
+        for (size_t j = i + 1; j < segs.size(); ++j) {
+            const cv::Vec3d li = cv::Vec3d(segs[i][0], segs[i][1], 1)
+                                     .cross(cv::Vec3d(segs[i][2], segs[i][3], 1)),
+                            lj = cv::Vec3d(segs[j][0], segs[j][1], 1)
+                                     .cross(cv::Vec3d(segs[j][2], segs[j][3], 1));
+            cv::Vec3d v = li.cross(lj);
+            const double n = cv::norm(v);
+            if (n < 1e-12) continue;
+            v /= n;
+            int count = 0;
+            double sum = 0;
+            for (const auto& s : segs) {
+                const double r = segmentResidual(s, v);
+                count += r < 1.0;
+                sum += std::min(r, 10.0);
+            }
+            if (count > best_count || (count == best_count && sum < best_sum)) {
+                best = v;
+                best_count = count;
+                best_sum = sum;
+            }
+        }
+    return best;
+}
+
 /** The twelve edges of the room box projected (clipped to the part in front of the camera). */
 json boxEdges(const Camera& cam, const Room& room) {
     json edges = json::array();
@@ -468,26 +501,50 @@ AnnotateReply AnnotateSession::calibrate(const AnnotateRequest& r) const {
             vps.push_back(e);
         }
         out["vanishing_points"] = vps;
-        // Residual of every segment against its axis's vanishing point, per group.
+        // Residual of every segment against its axis's vanishing point, per group. An
+        // outlier is far off compared with the typical (median) segment, so that one gross
+        // error does not hide itself by inflating the threshold.
+        // Groups of three or more segments are measured against their consensus vanishing
+        // point (the intersection of the pair that most other segments agree with), so that
+        // an error is not absorbed by the least-squares fit it spoils.
+        std::vector<cv::Vec3d> consensus(ann.lines.size());
+        for (size_t g = 0; g < ann.lines.size(); ++g)
+            consensus[g] = consensusVanishingPoint(ann.lines[g].segments);
         json residuals = json::array();
+        std::vector<double> all;
         size_t k = 0;
-        const double outlier_px = std::max(1.5, 3 * fc.rms_px);
         for (size_t g = 0; g < ann.lines.size(); ++g) {
             json rg{{"name", ann.lines[g].name}, {"axis", -1}, {"residuals", json::array()}};
             for (size_t s = 0; s < ann.lines[g].segments.size(); ++s, ++k) {
                 const int axis = k < fc.labels.size() ? fc.labels[k] : -1;
                 rg["axis"] = axis;
-                const double res =
-                    axis >= 0 ? segmentResidual(ann.lines[g].segments[s], fc.vanishing_points[axis])
-                              : 0.0;
+                const auto& segs = ann.lines[g].segments;
+                double res = 0;
+                if (segs.size() >= 3) {
+                    res = segmentResidual(segs[s], consensus[g]);
+                } else if (axis >= 0) {
+                    res = segmentResidual(segs[s], fc.vanishing_points[axis]);
+                }
                 rg["residuals"].push_back(res);
-                if (res > outlier_px)
+                all.push_back(res);
+            }
+            residuals.push_back(rg);
+        }
+        std::vector<double> sorted = all;
+        std::sort(sorted.begin(), sorted.end());
+        const double median = sorted.empty() ? 0 : sorted[sorted.size() / 2];
+        const double outlier_px = std::max(1.5, 4 * median);
+        out["outlier_px"] = outlier_px;
+        for (const auto& rg : residuals) {
+            int s = 0;
+            for (const auto& v : rg["residuals"]) {
+                ++s;
+                if (v.get<double>() > outlier_px)
                     warnings.push_back(cv::format(
                         "line group '%s', segment %d is %.1f px off its vanishing point (an "
                         "outlier: wrong group, or an end misplaced)",
-                        ann.lines[g].name.c_str(), (int)s + 1, res));
+                        rg["name"].get<std::string>().c_str(), s, v.get<double>()));
             }
-            residuals.push_back(rg);
         }
         out["groups"] = residuals;
         int axes_seen[3] = {0, 0, 0};

@@ -237,7 +237,7 @@ function draw() {
     const res = fb && fb.groups ? (fb.groups.find((r) => r.name === g.name) || {}).residuals : null;
     g.segments.forEach((s, si) => {
       const r = res ? res[si] : undefined;
-      const bad = r !== undefined && r > Math.max(1.5, 3 * (fb.rms_px || 0));
+      const bad = r !== undefined && r > fb.outlier_px;
       line(...s, bad ? '#ff2020' : groupColour(gi), gi === state.activeGroup ? 2.5 : 1.8);
       dot(s[0], s[1], groupColour(gi), 3); dot(s[2], s[3], groupColour(gi), 3);
       if (r !== undefined && (bad || v.s >= 1.5)) label((s[0] + s[2]) / 2, (s[1] + s[3]) / 2, r.toFixed(2), bad ? '#ff4040' : '#ddd');
@@ -291,7 +291,7 @@ function renderPanel() {
       `<input type="text" value="${g.name.replace(/"/g, '')}"> <select>` +
       ['any', 'horizontal', 'vertical'].map((x) => `<option${x === g.axis ? ' selected' : ''}>${x}</option>`).join('') +
       `</select> ${g.segments.length} seg${axis} <button title="Delete the group">✕</button>` +
-      `<div class="res">${fg ? 'residuals ' + fg.residuals.map((r) => `<span class="${r > Math.max(1.5, 3 * (state.feedback.rms_px || 0)) ? 'bad' : ''}">${r.toFixed(2)}</span>`).join(' ') + ' px' : ''}</div>`;
+      `<div class="res">${fg ? 'residuals ' + fg.residuals.map((r) => `<span class="${r > state.feedback.outlier_px ? 'bad' : ''}">${r.toFixed(2)}</span>`).join(' ') + ' px' : ''}</div>`;
     d.addEventListener('click', (e) => { if (e.target === d || e.target.tagName === 'SPAN') { state.activeGroup = i; setTool('line'); renderPanel(); draw(); } });
     d.querySelector('input').addEventListener('change', (e) => edit(() => { g.name = e.target.value.trim() || g.name; }));
     d.querySelector('select').addEventListener('change', (e) => edit(() => { g.axis = e.target.value; }));
