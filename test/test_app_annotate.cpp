@@ -7,6 +7,7 @@
 #ifdef VBME_HAVE_ANNOTATE
 
 #include <filesystem>
+#include <fstream>
 #include <thread>
 
 #include <httplib.h>
@@ -389,6 +390,26 @@ TEST(AppAnnotate, RealServerOnLoopback) {
     EXPECT_EQ(cal->status, 200) << cal->body;
     server.stop();
     t.join();
+}
+
+TEST(AppAnnotate, CommandLineChecksBeforeServing) {
+    const std::string exe = VBME_EXE;
+    vbme_test::ScratchDir dir;
+    fs::create_directories(dir / "frames");
+    imwrite(dir / "frames/00000.png", Mat(48, 64, CV_8UC3, Scalar::all(90)));
+    auto r = vbme_test::run(exe + " annotate --video " + (dir / "frames"));
+    EXPECT_EQ(r.code, 2) << r.output;  // --out is required
+    EXPECT_NE(r.output.find("--out"), std::string::npos) << r.output;
+    { std::ofstream(dir / "taken.yml") << "lines: []\n"; }
+    r = vbme_test::run(exe + " annotate --video " + (dir / "frames") + " --out " +
+                       (dir / "taken.yml"));
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("--force"), std::string::npos) << r.output;
+    r = vbme_test::run(exe + " annotate --video " + (dir / "frames") + " --frame 3 --out " +
+                       (dir / "a.yml"));
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("frame 3"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir / "a.yml"));
 }
 
 #endif  // VBME_HAVE_ANNOTATE

@@ -483,6 +483,9 @@ AnnotateReply AnnotateSession::calibrate(const AnnotateRequest& r) const {
     }
     if (have_camera) {
         Camera cam = fc.camera();
+        // As vbme calibrate without a room: the given height, else the default one.
+        placeCamera(cam, ann.camera_height > 0 ? ann.camera_height
+                                               : FrameCalibrationOptions().default_camera_height);
         const double f = fc.focal();
         out["focal"] = f;
         out["fov_deg"] = {2 * std::atan2(size.width * 0.5, f) * 180 / CV_PI,

@@ -231,7 +231,7 @@ function draw() {
     }
   }
   if ($('show-suggestions').checked)
-    for (const sg of state.suggestions) line(...sg.s, sg.axis >= 0 ? AXIS_COLOURS[sg.axis] : '#aaa', 1, [3, 3]);
+    for (const sg of state.suggestions) line(...sg.s, sg.axis >= 0 ? AXIS_COLOURS[sg.axis] : '#aaa', 2, [5, 3]);
   // Line groups, with each segment's residual.
   state.ann.lines.forEach((g, gi) => {
     const res = fb && fb.groups ? (fb.groups.find((r) => r.name === g.name) || {}).residuals : null;
