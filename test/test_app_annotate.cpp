@@ -392,6 +392,59 @@ TEST(AppAnnotate, RealServerOnLoopback) {
     t.join();
 }
 
+TEST(AppAnnotate, ObjectPreviewIsADifferentialRenderIntoTheFrame) {
+    vbme_test::ScratchDir dir;
+    // A 320x240 version of the known camera, and a standing 0.4 m cube.
+    Camera cam = truthCamera();
+    cam.image_size = Size(320, 240);
+    cam.K = Matx33d(225, 0, 159.5, 0, 225, 119.5, 0, 0, 1);
+    {
+        std::ofstream cube(dir / "cube.obj");
+        for (int i = 0; i < 8; ++i)
+            cube << "v " << (i & 1 ? 0.2 : -0.2) << " " << (i & 2 ? 0.2 : -0.2) << " "
+                 << (i & 4 ? 0.4 : 0.0) << "\n";
+        cube << "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+    }
+    AnnotateConfig c;
+    c.video = "synthetic";
+    c.out = dir / "a.yml";
+    c.object = dir / "cube.obj";
+    std::map<int, Mat> frames;
+    frames[0] = drawSyntheticRoom(cam, truthRoom(), 0.5, 1.0, 3);
+    AnnotateSession s(c, frames);
+    s.setPort(8123);
+    AnnotateRequest r;
+    r.method = "POST";
+    r.path = "/" + s.token() + "/api/preview";
+    r.headers = {{"host", "127.0.0.1:8123"}};
+    const Point2d place = cam.project(Vec3d(-0.8, 2.2, 0));
+    r.body = format(
+        "{\"frame\": 0, \"spp\": 2, \"annotation\": %s, \"placement\": {\"place\": "
+        "[%.3f, %.3f], \"scale\": 1, \"rotate_deg\": 30}}",
+        annotationJson(cam).c_str(), place.x, place.y);
+    const AnnotateReply rep = s.handle(r);
+    ASSERT_EQ(rep.status, 200) << rep.body;
+    ASSERT_EQ(rep.content_type, "image/png");
+    Mat img = imdecode(std::vector<uchar>(rep.body.begin(), rep.body.end()), IMREAD_COLOR);
+    ASSERT_EQ(img.size(), frames[0].size());
+    Mat diff;
+    absdiff(img, frames[0], diff);
+    // The cube's middle: 0.2 m above the placed floor point; the far top-left corner.
+    const Point2d mid = cam.project(Vec3d(-0.8, 2.2, 0.2));
+    const double at_object = mean(diff(Rect(cvRound(mid.x) - 4, cvRound(mid.y) - 4, 8, 8)))[1];
+    const double far_away = mean(diff(Rect(0, 0, 20, 20)))[1];
+    std::printf("|preview - frame|: %.1f levels on the object, %.2f in the far corner\n", at_object,
+                far_away);
+    EXPECT_GT(at_object, 10.0);
+    EXPECT_LT(far_away, 1.0);
+    // Not on the floor: 422 with the reason; without --object: 404.
+    r.body = format("{\"annotation\": %s, \"placement\": {\"place\": [160, 5]}}",
+                    annotationJson(cam).c_str());
+    EXPECT_EQ(s.handle(r).status, 422);
+    Api api;
+    EXPECT_EQ(api.call("POST", "api/preview", "{}").status, 404);
+}
+
 TEST(AppAnnotate, CommandLineChecksBeforeServing) {
     const std::string exe = VBME_EXE;
     vbme_test::ScratchDir dir;

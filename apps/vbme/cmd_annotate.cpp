@@ -77,6 +77,10 @@ void setupAnnotate(CLI::App& app) {
         ->required();
     app.add_option("--scene-out", o->config.scene_out,
                    "Also write the calibrated scene file on Save (as 'vbme calibrate --out')");
+    app.add_option("--object", o->config.object,
+                   "A mesh (OBJ, …) to place on the floor with a progressive differential-render "
+                   "preview; Save then adds it to --scene-out")
+        ->check(CLI::ExistingFile);
     app.add_option("--port", o->port, "Port on 127.0.0.1 (default: a free one)")
         ->check(CLI::Range(1, 65535));
     addCommonOptions(app, o->common);

@@ -45,7 +45,8 @@ const failures = [];
 const check = (ok, what) => { log(`${ok ? 'ok  ' : 'FAIL'} ${what}`); if (!ok) failures.push(what); };
 
 // The server.
-const server = spawn(args.vbme, ['annotate', '--video', path.join(art, 'frames'), '--out', annPath, '--scene-out', scenePath], { stdio: ['ignore', 'pipe', 'pipe'] });
+const server = spawn(args.vbme, ['annotate', '--video', path.join(art, 'frames'), '--out', annPath, '--scene-out', scenePath,
+  '--object', path.join(art, 'cube.obj')], { stdio: ['ignore', 'pipe', 'pipe'] });
 let serverOut = '';
 server.stderr.on('data', (d) => { serverOut += d; });
 const url = await new Promise((resolve, reject) => {
@@ -167,7 +168,34 @@ try {
   await page.screenshot({ path: path.join(art, '5_saved.png') });
   log(`annotating took ${clicks} clicks/drags and ${keys} key presses`);
 
-  // The saved file through `vbme calibrate`.
+  // Place the object on the floor: the preview appears and is refined.
+  await key('p');
+  await clickAt(truth.place);
+  await page.waitForSelector('#preview-status:not([data-spp="0"])', { timeout: 60000 }).catch(async (e) => {
+    throw new Error(`no preview: ${await page.$eval('#preview-status', (el) => el.textContent)} (tool ${await page.evaluate(() => window.vbmeAnnotate.state.tool)})`);
+  });
+  const firstSpp = await page.$eval('#preview-status', (e) => +e.dataset.spp);
+  // The preview differs from the frame where the object stands, not in the far corner.
+  const diffs = await page.evaluate(async (u, v) => {
+    const st = window.vbmeAnnotate.state;
+    const w = st.image.naturalWidth, h = st.image.naturalHeight;
+    const grab = (src) => { const c = new OffscreenCanvas(w, h); const g = c.getContext('2d'); g.drawImage(src, 0, 0); return g.getImageData(0, 0, w, h).data; };
+    const a = grab(st.image), b = grab(st.preview);
+    const mad = (x0, y0, x1, y1) => { let s = 0, n = 0; for (let y = y0; y < y1; y++) for (let x = x0; x < x1; x++) for (let k = 0; k < 3; k++) { s += Math.abs(a[4 * (y * w + x) + k] - b[4 * (y * w + x) + k]); n++; } return s / n; };
+    const U = Math.round(u), V = Math.round(v);
+    return { object: mad(U - 10, V - 30, U + 10, V - 5), corner: mad(0, 0, 40, 40) };
+  }, truth.place[0], truth.place[1]);
+  check(firstSpp >= 1 && diffs.object > 10 && diffs.corner < 2, `object preview appears (at ${firstSpp} spp, then refined in the background): mean |preview − frame| ${diffs.object.toFixed(1)} levels above the placed point, ${diffs.corner.toFixed(2)} in the far corner`);
+  await page.screenshot({ path: path.join(art, '5b_object_preview.png') });
+  await page.keyboard.down('Control'); await page.keyboard.press('s'); await page.keyboard.up('Control');
+  await page.waitForFunction(() => +document.body.dataset.saved >= 2, { timeout: 15000 });
+  const placedStatus = await page.$eval('#status', (e) => e.textContent);
+  const sceneText = fs.readFileSync(scenePath, 'utf8');
+  check(/--place/.test(placedStatus) && /objects:/.test(sceneText) && /cube\.obj/.test(sceneText), `save with the object: the scene has objects: and the page says ${JSON.stringify(placedStatus.split('\n').pop())}`);
+
+  // The saved file through `vbme calibrate` (the page and its background renders stopped).
+  await browser.close();
+  server.kill('SIGTERM');
   check(fs.existsSync(annPath) && fs.existsSync(scenePath), 'annotation and scene files written');
   const out = execFileSync(args.vbme, ['calibrate', '--image', path.join(art, 'frames', '00000.png'), '--annotation', annPath,
     '--out', path.join(art, 'scene_calibrate.yml'), '--overlay', path.join(art, '6_calibrate_overlay.png')]).toString();

@@ -3,7 +3,8 @@
 // example (known camera) as a one-frame video, and writes the true camera and room with the
 // exact image positions of the world points the test clicks (Camera::project of the truth).
 //
-//   vbme_test_annotate_fixture <folder>  →  <folder>/frames/00000.png, <folder>/truth.json
+//   vbme_test_annotate_fixture <folder>  →  <folder>/frames/00000.png, <folder>/truth.json,
+//                                            <folder>/cube.obj
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -63,10 +64,17 @@ int main(int argc, char** argv) {
     f << "  \"corner_back_left\": [" << px(-2.2, 3.0, 1.2) << "],\n";
     f << "  \"ceiling_back\": [" << px(-1.6, 3.0, 2.7) << "],\n";
     f << "  \"faces\": {\"right\": 2.6, \"front\": -1.4},\n";
+    f << "  \"place\": " << px(-1.0, 2.3, 0) << ",\n";
     f << "  \"window\": [" << px(win[0][0], win[0][1], win[0][2]) << ", "
       << px(win[1][0], win[1][1], win[1][2]) << ", " << px(win[2][0], win[2][1], win[2][2]) << ", "
       << px(win[3][0], win[3][1], win[3][2]) << "]\n}\n";
     f.close();
+    // The object to place: a standing 0.4 m cube (bounding-box bottom centre at the origin).
+    std::ofstream cube(out + "/cube.obj");
+    for (int i = 0; i < 8; ++i)
+        cube << "v " << (i & 1 ? 0.2 : -0.2) << " " << (i & 2 ? 0.2 : -0.2) << " "
+             << (i & 4 ? 0.4 : 0.0) << "\n";
+    cube << "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
     std::printf("wrote %s/frames/00000.png and %s/truth.json\n", out.c_str(), out.c_str());
     return f ? 0 : 1;
 }

@@ -13,6 +13,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/vbme/calib/synthetic.hpp>
+#include <opencv2/vbme/pipeline/insertion.hpp>
+#include <opencv2/vbme/render.hpp>
 
 namespace vbme_app {
 
@@ -251,6 +253,31 @@ std::string mimeOf(const std::string& name) {
     return "application/octet-stream";
 }
 
+/** The object of the page's placement: `place` [u, v] (a frame pixel on the floor), `scale`
+and `rotate_deg` (about world z), as placeOnFloor() puts it for `vbme insert --place`. */
+SceneObject placedObject(const Scene& scene, const std::string& mesh, const json& placement) {
+    if (!placement.is_object() || !placement.contains("place") || !placement["place"].is_array() ||
+        placement["place"].size() != 2 || !placement["place"][0].is_number() ||
+        !placement["place"][1].is_number())
+        throw RequestError{400,
+                           "placement: expected {\"place\": [u, v], \"scale\": s, "
+                           "\"rotate_deg\": a}"};
+    const double scale = placement.value("scale", 1.0);
+    const double deg = placement.value("rotate_deg", 0.0);
+    if (!(scale > 0) || scale > 100) throw RequestError{400, "placement: scale out of range"};
+    SceneObject obj;
+    obj.mesh = mesh;
+    const double a = deg * CV_PI / 180, c = std::cos(a) * scale, s = std::sin(a) * scale;
+    obj.world_from_object = cv::Matx44d(c, -s, 0, 0, s, c, 0, 0, 0, 0, scale, 0, 0, 0, 0, 1);
+    const cv::Point2d px(placement["place"][0].get<double>(), placement["place"][1].get<double>());
+    try {
+        obj.world_from_object = placeOnFloor(scene, obj, px);
+    } catch (const cv::Exception& e) {
+        throw RequestError{422, "placement: " + e.err};
+    }
+    return obj;
+}
+
 }  // namespace
 
 std::map<int, cv::Mat> loadPickerFrames(const std::string& video, int frame, int max_frames) {
@@ -331,8 +358,9 @@ AnnotateReply AnnotateSession::route(const AnnotateRequest& r, const std::string
     if (api == "suggestions" && get) return suggestions(r);
     if (api == "calibrate" && r.method == "POST") return calibrate(r);
     if (api == "save" && r.method == "POST") return save(r);
+    if (api == "preview" && r.method == "POST") return preview(r);
     if (api == "info" || api == "frame" || api == "suggestions" || api == "calibrate" ||
-        api == "save")
+        api == "save" || api == "preview")
         throw RequestError{405, "method not allowed for api/" + api};
     throw RequestError{404, "no such API: " + api};
 }
@@ -357,10 +385,10 @@ AnnotateReply AnnotateSession::info() const {
     for (const auto& kv : frames_)
         frames.push_back(kv.first);
     const cv::Mat& f = frames_.at(config_.frame);
-    json j{{"video", config_.video}, {"frame", config_.frame},
-           {"frames", frames},       {"image_size", {f.cols, f.rows}},
-           {"out", config_.out},     {"scene_out", config_.scene_out},
-           {"annotation", nullptr}};
+    json j{{"video", config_.video},   {"frame", config_.frame},
+           {"frames", frames},         {"image_size", {f.cols, f.rows}},
+           {"out", config_.out},       {"scene_out", config_.scene_out},
+           {"object", config_.object}, {"annotation", nullptr}};
     if (!config_.annotation.empty() && std::filesystem::exists(config_.annotation))
         j["annotation"] = annotationToJson(FrameAnnotation::read(config_.annotation));
     return jsonReply(j);
@@ -635,7 +663,16 @@ AnnotateReply AnnotateSession::save(const AnnotateRequest& r) const {
     if (!config_.scene_out.empty()) {
         try {
             FrameCalibrationOptions opt;
-            const Scene scene = calibrateFrame(image, ann, opt, nullptr);
+            Scene scene = calibrateFrame(image, ann, opt, nullptr);
+            if (!config_.object.empty() && body.contains("placement") &&
+                !body["placement"].is_null()) {
+                scene.objects.push_back(placedObject(scene, config_.object, body["placement"]));
+                const json& p = body["placement"]["place"];
+                out["place"] = p;
+                out["insert_hint"] =
+                    cv::format("vbme insert --scene %s --place %.1f,%.1f …",
+                               config_.scene_out.c_str(), p[0].get<double>(), p[1].get<double>());
+            }
             scene.write(config_.scene_out);
             out["saved"].push_back(config_.scene_out);
         } catch (const cv::Exception& e) {
@@ -645,6 +682,64 @@ AnnotateReply AnnotateSession::save(const AnnotateRequest& r) const {
     std::printf("saved %s\n", config_.out.c_str());
     std::fflush(stdout);
     return jsonReply(out);
+}
+
+AnnotateReply AnnotateSession::preview(const AnnotateRequest& r) const {
+    if (config_.object.empty())
+        throw RequestError{404, "no object to preview: start vbme annotate with --object"};
+    const json body = parseBody(r);
+    if (!body.contains("annotation") || !body.contains("placement"))
+        throw RequestError{400,
+                           "expected {\"annotation\": {...}, \"placement\": {...}, "
+                           "\"frame\": N, \"spp\": n}"};
+    const auto fi = body.find("frame");
+    const cv::Mat& image = frameOf(fi == body.end()          ? std::string()
+                                   : fi->is_number_integer() ? std::to_string(fi->get<long>())
+                                                             : std::string("?"));
+    const int spp = body.value("spp", 1);
+    if (spp < 1 || spp > 256) throw RequestError{400, "spp: expected 1 … 256"};
+    std::vector<std::string> unfinished;
+    const FrameAnnotation ann =
+        annotationFromJson(withoutUnfinished(body["annotation"], unfinished));
+    Scene scene;
+    try {
+        scene = calibrateFrame(image, ann, FrameCalibrationOptions(), nullptr);
+    } catch (const cv::Exception& e) {
+        throw RequestError{422, "no preview until the calibration succeeds: " + e.err};
+    }
+    if (!scene.has_room)
+        throw RequestError{422, "no preview without the room box: annotate the room first"};
+    scene.objects.push_back(placedObject(scene, config_.object, body["placement"]));
+    // A differential render of the object into the frame (the room with its default grey
+    // material and the annotated lights: a preview, not vbme insert's estimated albedo).
+    DifferentialRenderer::Params p;
+    p.render.spp = spp;
+    p.render.seed = 1;
+    p.render.max_depth = 4;
+    p.coverage_supersampling = 4;
+    // Rendered at half resolution (a preview: the noise of few samples dominates) and
+    // enlarged to the frame.
+    Camera half = scene.camera;
+    half.image_size = cv::Size((image.cols + 1) / 2, (image.rows + 1) / 2);
+    half.K(0, 0) *= 0.5;
+    half.K(1, 1) *= 0.5;
+    half.K(0, 2) = (half.K(0, 2) + 0.5) * 0.5 - 0.5;
+    half.K(1, 2) = (half.K(1, 2) + 0.5) * 0.5 - 0.5;
+    DifferentialImages layers;
+    {
+        const cv::Ptr<RenderScene> rs = RenderScene::create(scene);
+        DifferentialRenderer::create(p)->render(*rs, half, layers);
+    }
+    for (cv::Mat* m : {&layers.obj, &layers.diff, &layers.mask})
+        cv::resize(*m, *m, image.size(), 0, 0, cv::INTER_LINEAR);
+    cv::Mat linear, encoded;
+    CompositeParams cp;
+    cp.response = scene.camera.response;
+    compositeDifferential(image, layers.obj, layers.diff, layers.mask, linear, cp);
+    encodeComposite(linear, encoded, scene.camera.response, CV_8U);
+    std::vector<uchar> buf;
+    cv::imencode(".png", encoded, buf);
+    return {200, "image/png", std::string(buf.begin(), buf.end())};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -685,7 +780,8 @@ AnnotateServer::AnnotateServer(std::shared_ptr<AnnotateSession> session, int por
         res.set_header("X-Content-Type-Options", "nosniff");
         res.set_header("Referrer-Policy", "no-referrer");
         res.set_header("Content-Security-Policy",
-                       "default-src 'self'; img-src 'self' blob: data:; connect-src 'self'");
+                       "default-src 'self'; img-src 'self' blob: data:; connect-src 'self'; "
+                       "style-src 'self' 'unsafe-inline'");
     };
     s.Get(".*", handler);
     s.Post(".*", handler);

@@ -22,6 +22,7 @@ struct AnnotateConfig {
     std::string annotation;  //!< annotation to reopen (empty: start blank)
     std::string out;         //!< annotation file written by save
     std::string scene_out;   //!< scene file written by save (empty: none)
+    std::string object;      //!< mesh placed and previewed on the page (empty: none)
     int frame = 0;           //!< frame shown first
     /** @brief Largest request body accepted (bytes); larger ones get 413. */
     size_t max_body = 1 << 20;
@@ -65,7 +66,8 @@ Every request must carry the session token as the first path component (`/<token
 `Host` of 127.0.0.1:<port> or localhost:<port>, and, when it has an `Origin`, that same
 origin; otherwise it gets 403. Routes under `/<token>/`: the page's assets (`""`,
 `index.html`, `app.js`, `style.css`), and the JSON API `api/info`, `api/frame?i=N[&thumb=1]`,
-`api/suggestions?i=N`, `api/calibrate` (POST), `api/save` (POST). See doc/vbme_annotate.md. */
+`api/suggestions?i=N`, `api/calibrate` (POST), `api/save` (POST), `api/preview` (POST, with an
+object). See doc/vbme_annotate.md. */
 class AnnotateSession {
 public:
     /** @brief A session on @p frames (index → 8-bit BGR) with a random token. */
@@ -90,6 +92,7 @@ private:
     AnnotateReply suggestions(const AnnotateRequest& request) const;
     AnnotateReply calibrate(const AnnotateRequest& request) const;
     AnnotateReply save(const AnnotateRequest& request) const;
+    AnnotateReply preview(const AnnotateRequest& request) const;
     const cv::Mat& frameOf(const std::string& index_text) const;
 
     AnnotateConfig config_;

@@ -23,6 +23,9 @@ const state = {
   space: false,
   calibrating: 0,         // sequence number of the last request sent
   calibrated: 0,          // sequence number of the last reply shown
+  placement: null,        // { place: [u, v], scale, rotate_deg } of --object
+  preview: null,          // ImageBitmap of the latest preview render
+  previewSeq: 0,          // bumps on every change: running refinements stop
 };
 
 function emptyAnnotation() {
@@ -94,11 +97,39 @@ async function calibrate() {
 async function save() {
   status('saving…');
   try {
-    const r = await api('save', { frame: state.frame, annotation: annotationForServer() });
-    status('saved ' + r.saved.join(', ') + (r.scene_error ? '\n' + r.scene_error : ''), !!r.scene_error);
+    const r = await api('save', { frame: state.frame, annotation: annotationForServer(), placement: state.placement });
+    status('saved ' + r.saved.join(', ') + (r.scene_error ? '\n' + r.scene_error : '') + (r.insert_hint ? '\n' + r.insert_hint : ''), !!r.scene_error);
     document.body.dataset.saved = String((+document.body.dataset.saved || 0) + 1);
   } catch (e) {
     status(e.message, true);
+  }
+}
+
+/** The object's preview: differential renders with more and more samples per pixel, each
+replacing the last, until the placement or the annotation changes. */
+async function refinePreview() {
+  if (!state.placement) return;
+  const seq = ++state.previewSeq;
+  const st = $('preview-status');
+  for (const spp of [1, 4, 16, 64]) {
+    st.textContent = `rendering ${spp} sample(s) per pixel…`;
+    let r;
+    try {
+      r = await fetch('api/preview', { method: 'POST', headers: { 'Content-Type': 'application/json' },
+        body: JSON.stringify({ frame: state.frame, annotation: annotationForServer(), placement: state.placement, spp }) });
+    } catch (e) { st.textContent = e.message; return; }
+    if (seq !== state.previewSeq) return;
+    if (!r.ok) {
+      const j = await r.json().catch(() => ({ error: `HTTP ${r.status}` }));
+      st.textContent = j.error; st.dataset.spp = '0'; state.preview = null; draw();
+      return;
+    }
+    const bmp = await createImageBitmap(await r.blob());
+    if (seq !== state.previewSeq) return;
+    state.preview = bmp;
+    st.textContent = `preview at ${spp} sample(s) per pixel` + (spp < 64 ? ', refining…' : '');
+    st.dataset.spp = String(spp);
+    draw();
   }
 }
 
@@ -141,7 +172,9 @@ function changed() {
   renderPanel();
   draw();
   scheduleCalibrate();
+  if (state.placement) { clearTimeout(previewTimer); previewTimer = setTimeout(refinePreview, 400); }
 }
+let previewTimer = null;
 
 // ---------------------------------------------------------------------------------------------
 // View: image ↔ screen
@@ -218,7 +251,8 @@ function draw() {
   if (!state.image) return;
   const v = state.view, img = state.image;
   ctx.imageSmoothingEnabled = v.s < 2;
-  ctx.drawImage(img, v.ox, v.oy, img.naturalWidth * v.s, img.naturalHeight * v.s);
+  const shown = state.preview && $('show-preview').checked ? state.preview : img;
+  ctx.drawImage(shown, v.ox, v.oy, img.naturalWidth * v.s, img.naturalHeight * v.s);
   const fb = state.feedback;
   // Live feedback underneath the user's marks.
   if (fb && fb.ok) {
@@ -252,6 +286,11 @@ function draw() {
     polygon(l.polygon, '#ffff80', i !== state.activeLight);
     l.polygon.forEach((p) => dot(p[0], p[1], '#ffff80', 3));
   });
+  if (state.placement) {
+    const [u, w] = state.placement.place;
+    dot(u, w, '#ffffff', 5);
+    label(u, w, 'object', '#ffffff');
+  }
   // The gesture in progress.
   const d = state.drag;
   if (d && d.kind === 'segment' && d.end) line(d.start[0], d.start[1], d.end[0], d.end[1], groupColour(state.activeGroup), 2, [4, 2]);
@@ -436,6 +475,10 @@ function click(x, y) {
       });
       break;
     }
+    case 'place':
+      state.placement = { place: p, scale: +$('object-scale').value || 1, rotate_deg: +$('object-rotate').value || 0 };
+      refinePreview();
+      break;
     case 'light':
       edit(() => {
         if (state.activeLight < 0) { a.lights.push({ polygon: [] }); state.activeLight = a.lights.length - 1; }
@@ -529,6 +572,7 @@ window.addEventListener('keydown', (e) => {
   if ((e.ctrlKey || e.metaKey) && k === 's') { e.preventDefault(); save(); return; }
   if (e.ctrlKey || e.metaKey || e.altKey) return;
   const tools = { l: 'line', f: 'floor', c: 'ceiling', k: 'corner', g: 'light' };
+  if (state.info && state.info.object) tools.p = 'place';
   if (tools[k]) setTool(tools[k]);
   else if (k === 'n') addGroup();
   else if (k === ' ') { state.space = true; e.preventDefault(); }
@@ -589,6 +633,15 @@ async function start() {
   if (info.annotation) {
     state.ann = normalise(info.annotation);
     status('reopened the annotation');
+  }
+  if (info.object) {
+    $('object').hidden = false;
+    $('place-tool').hidden = false;
+    $('object-name').textContent = info.object;
+    const upd = () => { if (state.placement) { state.placement.scale = +$('object-scale').value || 1; state.placement.rotate_deg = +$('object-rotate').value || 0; refinePreview(); } };
+    $('object-scale').addEventListener('change', upd);
+    $('object-rotate').addEventListener('change', upd);
+    $('show-preview').addEventListener('change', draw);
   }
   for (const f of info.frames) {
     const t = document.createElement('img');
