@@ -753,7 +753,7 @@ AnnotateServer::AnnotateServer(std::shared_ptr<AnnotateSession> session, int por
     : impl_(new Impl) {
     impl_->session = session;
     httplib::Server& s = impl_->server;
-    s.set_payload_max_length(session ? 4 << 20 : 0);
+    s.set_payload_max_length(4 << 20);  // the HTTP layer's bound; the API's is max_body
     s.set_keep_alive_max_count(100);
     s.set_read_timeout(10, 0);
     auto handler = [this](const httplib::Request& req, httplib::Response& res) {
