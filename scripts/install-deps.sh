@@ -21,7 +21,23 @@ PACKAGES=(
   clang libclang-rt-14-dev
   # the cluster test and `vbme farm slurm` on one machine (scripts/slurm-local.sh)
   slurm-wlm munge
+  # vbme annotate: local web server, JSON; its browser test (headless chromium, node)
+  libcpp-httplib-dev nlohmann-json3-dev chromium nodejs
 )
+# Debian's nodejs comes without npm; a nodejs that bundles npm conflicts with the npm package.
+if ! command -v npm >/dev/null 2>&1; then
+  PACKAGES+=(npm)
+fi
+
+# The browser test's driver (puppeteer-core, no browser download) from its lockfile.
+install_browser_test() {
+  local dir
+  dir="$(cd "$(dirname "$0")/.." && pwd)/test/browser"
+  if [ -f "$dir/package-lock.json" ] && [ ! -d "$dir/node_modules/puppeteer-core" ]; then
+    echo "install-deps: npm ci in test/browser"
+    (cd "$dir" && PUPPETEER_SKIP_DOWNLOAD=1 npm ci --no-audit --no-fund --loglevel=error)
+  fi
+}
 
 missing=()
 for p in "${PACKAGES[@]}"; do
@@ -32,6 +48,7 @@ done
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install-deps: all ${#PACKAGES[@]} packages already installed"
+  install_browser_test
   exit 0
 fi
 
@@ -49,3 +66,4 @@ echo "install-deps: installing ${#missing[@]} package(s): ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+install_browser_test

@@ -67,8 +67,8 @@ int vbme_app::vbmeMain(int argc, char** argv, bool parse_only) {
 
     // DESIGN order; commands not in the list follow, by name.
     static const std::vector<std::string> order = {
-        "track",     "inpaint",       "calibrate", "track-camera", "render",
-        "composite", "material-edit", "insert",    "demo",         "bench"};
+        "track",     "inpaint",       "calibrate", "annotate", "track-camera", "render",
+        "composite", "material-edit", "insert",    "demo",     "bench"};
     auto rank = [](const std::string& n) {
         auto it = std::find(order.begin(), order.end(), n);
         return it == order.end() ? order.size() : size_t(it - order.begin());

@@ -1,0 +1,468 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Tests of `vbme annotate`'s server: its JSON API called directly (calibration round trip on a
+// synthetic room with a known camera, warnings, missing constraints, save, bad requests) and
+// its security checks (token, Host, Origin, sizes), also through a real HTTP connection.
+#include <gtest/gtest.h>
+
+#ifdef VBME_HAVE_ANNOTATE
+
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include <httplib.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/vbme/calib.hpp>
+#include <opencv2/vbme/calib/synthetic.hpp>
+
+#include "annotate_server.hpp"
+#include "vbme_test_util.hpp"
+
+using namespace cv;
+using namespace cv::vbme;
+using vbme_app::AnnotateConfig;
+using vbme_app::AnnotateReply;
+using vbme_app::AnnotateRequest;
+using vbme_app::AnnotateSession;
+namespace fs = std::filesystem;
+
+namespace {
+
+/** f = 450 px, 1.45 m high, turned 20° left, looking 8° down (not the worked example's). */
+Camera truthCamera() {
+    Camera c = Camera::fromFocal(450, Size(640, 480));
+    Matx33d yaw, pitch;
+    Rodrigues(Vec3d(0, 0, -20 * CV_PI / 180), yaw);
+    Rodrigues(Vec3d(8 * CV_PI / 180, 0, 0), pitch);
+    c.R = pitch * Matx33d(1, 0, 0, 0, 0, -1, 0, 1, 0) * yaw;
+    placeCamera(c, 1.45);
+    return c;
+}
+
+Room truthRoom() {
+    Room r;
+    r.min = Vec3d(-2.0, -1.5, 0);
+    r.max = Vec3d(2.4, 3.2, 2.6);
+    return r;
+}
+
+std::string pt(const Camera& c, double x, double y, double z) {
+    const Point2d p = c.project(Vec3d(x, y, z));
+    return format("[%.4f, %.4f]", p.x, p.y);
+}
+
+std::string seg(const Camera& c, Vec3d a, Vec3d b) {
+    const Point2d p = c.project(a), q = c.project(b);
+    return format("[%.4f, %.4f, %.4f, %.4f]", p.x, p.y, q.x, q.y);
+}
+
+/** The annotation a person would click on the truth's picture, as the page sends it. */
+std::string annotationJson(const Camera& c, bool with_room = true) {
+    std::string j = "{\"camera_height\": 1.45, \"lines\": [";
+    j += "{\"name\": \"floor_x\", \"axis\": \"horizontal\", \"segments\": [" +
+         seg(c, {-1.8, 2.0, 0}, {-0.5, 2.0, 0}) + ", " + seg(c, {-1.8, 3.0, 0}, {-0.5, 3.0, 0}) +
+         "]},";
+    j += "{\"name\": \"floor_y\", \"axis\": \"any\", \"segments\": [" +
+         seg(c, {-1.5, 1.5, 0}, {-1.5, 3.0, 0}) + ", " + seg(c, {-0.5, 1.5, 0}, {-0.5, 3.0, 0}) +
+         "]}]";
+    if (with_room) {
+        j += ", \"room\": {\"floor_edges\": {\"back\": [" + pt(c, -1.2, 3.2, 0) + ", " +
+             pt(c, 0.2, 3.2, 0) + "]}, \"wall_corners\": [{\"walls\": [\"back\", \"left\"], " +
+             "\"points\": [" + pt(c, -2.0, 3.2, 1.0) + "]}], \"ceiling_edges\": {\"back\": [" +
+             pt(c, -1.0, 3.2, 2.6) + "]}, \"faces\": {\"right\": 2.4, \"front\": -1.5}}";
+        j += ", \"lights\": [{\"polygon\": [" + pt(c, -0.8, 3.2, 1.0) + ", " +
+             pt(c, 0.2, 3.2, 1.0) + ", " + pt(c, 0.2, 3.2, 2.0) + ", " + pt(c, -0.8, 3.2, 2.0) +
+             "]}]";
+    }
+    return j + "}";
+}
+
+struct Api {
+    vbme_test::ScratchDir dir;
+    Camera cam = truthCamera();
+    std::shared_ptr<AnnotateSession> session;
+    std::string out = dir / "annotation.yml";
+    std::string scene = dir / "scene.yml";
+
+    Api() {
+        AnnotateConfig c;
+        c.video = "synthetic";
+        c.out = out;
+        c.scene_out = scene;
+        c.max_body = 64 * 1024;
+        std::map<int, Mat> frames;
+        frames[0] = drawSyntheticRoom(cam, truthRoom(), 0.5, 1.0, 3);
+        session = std::make_shared<AnnotateSession>(c, frames);
+        session->setPort(8123);
+    }
+
+    AnnotateReply call(const std::string& method, const std::string& path,
+                       const std::string& body = "",
+                       std::map<std::string, std::string> headers = {}) const {
+        AnnotateRequest r;
+        r.method = method;
+        const size_t q = path.find('?');
+        r.path = "/" + session->token() + "/" + path.substr(0, q);
+        if (q != std::string::npos) {
+            const std::string qs = path.substr(q + 1);
+            size_t start = 0;
+            while (start < qs.size()) {
+                size_t amp = qs.find('&', start);
+                if (amp == std::string::npos) amp = qs.size();
+                const std::string kv = qs.substr(start, amp - start);
+                const size_t eq = kv.find('=');
+                r.query[kv.substr(0, eq)] = eq == std::string::npos ? "" : kv.substr(eq + 1);
+                start = amp + 1;
+            }
+        }
+        r.headers = {{"host", "127.0.0.1:8123"}};
+        for (const auto& kv : headers)
+            r.headers[kv.first] = kv.second;
+        r.body = body;
+        return session->handle(r);
+    }
+
+    /** A JSON reply parsed by OpenCV's reader (an independent JSON parser). */
+    static FileStorage parse(const AnnotateReply& r) {
+        return FileStorage(r.body,
+                           FileStorage::READ | FileStorage::MEMORY | FileStorage::FORMAT_JSON);
+    }
+};
+
+std::string calibrateBody(const std::string& annotation) {
+    return "{\"frame\": 0, \"annotation\": " + annotation + "}";
+}
+
+}  // namespace
+
+TEST(AppAnnotate, CalibrationRoundTripOnKnownCamera) {
+    Api api;
+    const AnnotateReply r =
+        api.call("POST", "api/calibrate", calibrateBody(annotationJson(api.cam)));
+    ASSERT_EQ(r.status, 200) << r.body;
+    FileStorage fb = Api::parse(r);
+    ASSERT_TRUE((int)fb["ok"]);
+    EXPECT_TRUE((int)fb["complete"]) << r.body;
+    const double f = (double)fb["focal"];
+    std::printf("focal %.4f px (true 450)\n", f);
+    EXPECT_NEAR(f, 450, 0.45);  // exact clicks: 0.1 %
+    // Vanishing points: K R e_i of the truth.
+    for (int a = 0; a < 2; ++a) {
+        const FileNode vp = fb["vanishing_points"][a];
+        ASSERT_FALSE(vp["point"].empty());
+        const Vec3d t = api.cam.K * Vec3d(api.cam.R(0, a), api.cam.R(1, a), api.cam.R(2, a));
+        const double ex = (double)vp["point"][0] - t[0] / t[2],
+                     ey = (double)vp["point"][1] - t[1] / t[2];
+        EXPECT_LT(std::hypot(ex, ey), 2.0) << "axis " << a;
+    }
+    // Horizon: through the vanishing points of horizontal directions, e.g. world (1, 1, 0).
+    const FileNode hz = fb["horizon"];
+    const Vec3d d = api.cam.K * (api.cam.R * Vec3d(1, 1, 0));
+    const double hx = d[0] / d[2], hy = d[1] / d[2];
+    const double x0 = hz[0], y0 = hz[1], x1 = hz[2], y1 = hz[3];
+    const double dist = std::abs((y1 - y0) * hx - (x1 - x0) * hy + x1 * y0 - y1 * x0) /
+                        std::hypot(x1 - x0, y1 - y0);
+    EXPECT_LT(dist, 0.5) << "horizon misses a horizontal vanishing point";
+    // The room box and its projected edges.
+    const Room truth = truthRoom();
+    for (int k = 0; k < 3; ++k) {
+        EXPECT_NEAR((double)fb["room"]["min"][k], truth.min[k], 0.01) << k;
+        EXPECT_NEAR((double)fb["room"]["max"][k], truth.max[k], 0.01) << k;
+    }
+    EXPECT_GE((int)fb["room"]["edges"].size(), 6);
+    ASSERT_EQ((int)fb["lights"].size(), 1);
+    const Point2d c0 = api.cam.project(Vec3d(-0.8, 3.2, 1.0));
+    bool corner_found = false;  // the light's corner projects back where it was clicked
+    for (const auto& p : fb["lights"][0]["polygon"])
+        corner_found = corner_found || std::hypot((double)p[0] - c0.x, (double)p[1] - c0.y) < 1.0;
+    EXPECT_TRUE(corner_found);
+    // Residuals of exact segments are tiny; no warnings.
+    for (const auto& g : fb["groups"])
+        for (const auto& v : g["residuals"])
+            EXPECT_LT((double)v, 0.1);
+    EXPECT_EQ(fb["warnings"].size(), 0u) << r.body;
+}
+
+TEST(AppAnnotate, OutlierSegmentAndMissingConstraintsAreReported) {
+    Api api;
+    // Two more x segments, one with an end misplaced by 8 px.
+    std::string ann = annotationJson(api.cam, false);
+    ann.insert(ann.find("]},"), ", " + seg(api.cam, {-1.8, 2.25, 0}, {-0.5, 2.25, 0}));
+    const Point2d a = api.cam.project(Vec3d(-1.8, 2.5, 0)),
+                  b = api.cam.project(Vec3d(-0.5, 2.5, 0));
+    const size_t at = ann.find("]},");  // end of floor_x's segments
+    ann.insert(at, format(", [%.4f, %.4f, %.4f, %.4f]", a.x, a.y, b.x, b.y + 8));
+    const AnnotateReply r = api.call("POST", "api/calibrate", calibrateBody(ann));
+    ASSERT_EQ(r.status, 200) << r.body;
+    FileStorage fb = Api::parse(r);
+    std::string warnings, missing;
+    for (const auto& w : fb["warnings"])
+        warnings += (std::string)w + "\n";
+    for (const auto& m : fb["missing"])
+        missing += (std::string)m + "\n";
+    EXPECT_NE(warnings.find("floor_x', segment 4"), std::string::npos) << warnings;
+    const double res3 = fb["groups"][0]["residuals"][3];
+    std::printf("misplaced end: residual %.2f px, others", res3);
+    for (int g = 0; g < 2; ++g)
+        for (int s = 0; s < (int)fb["groups"][g]["residuals"].size(); ++s)
+            if (g || s != 3) {
+                const double v = fb["groups"][g]["residuals"][s];
+                std::printf(" %.2f", v);
+                EXPECT_LT(v, (double)fb["outlier_px"]);
+            }
+    std::printf(" (outlier above %.2f px)\n", (double)fb["outlier_px"]);
+    EXPECT_GT(res3, (double)fb["outlier_px"]);
+    // A segment of the other direction in a group: the library's orthogonality check speaks.
+    std::string mixed = annotationJson(api.cam, false);
+    mixed.insert(mixed.find("]},"), ", " + seg(api.cam, {0.5, 1.5, 0}, {0.5, 3.0, 0}));
+    FileStorage fbm = Api::parse(api.call("POST", "api/calibrate", calibrateBody(mixed)));
+    EXPECT_FALSE((int)fbm["ok"]);
+    EXPECT_NE(((std::string)fbm["warnings"][0]).find("one world direction"), std::string::npos);
+    EXPECT_NE(missing.find("room"), std::string::npos) << missing;
+    EXPECT_FALSE((int)fb["complete"]);
+
+    // One group only, and one half-drawn: lines are missing and the unfinished one is named.
+    const std::string one = "{\"lines\": [{\"name\": \"a\", \"segments\": [" +
+                            seg(api.cam, {-1.8, 2.0, 0}, {-0.5, 2.0, 0}) + ", " +
+                            seg(api.cam, {-1.8, 3.0, 0}, {-0.5, 3.0, 0}) +
+                            "]}, {\"name\": \"b\", \"segments\": [" +
+                            seg(api.cam, {-1.5, 1.5, 0}, {-1.5, 3.0, 0}) + "]}]}";
+    FileStorage fb1 = Api::parse(api.call("POST", "api/calibrate", calibrateBody(one)));
+    EXPECT_FALSE((int)fb1["ok"]);
+    std::string all;
+    for (const auto& m : fb1["missing"])
+        all += (std::string)m + "\n";
+    for (const auto& w : fb1["warnings"])
+        all += (std::string)w + "\n";
+    EXPECT_NE(all.find("1 of 2 line groups"), std::string::npos) << all;
+    EXPECT_NE(all.find("'b' has 1 segment"), std::string::npos) << all;
+    EXPECT_NE(all.find("camera height"), std::string::npos) << all;
+
+    // Crossed light polygon.
+    std::string crossed = annotationJson(api.cam);
+    const std::string poly = pt(api.cam, -0.8, 3.2, 1.0) + ", " + pt(api.cam, 0.2, 3.2, 1.0) +
+                             ", " + pt(api.cam, 0.2, 3.2, 2.0) + ", " + pt(api.cam, -0.8, 3.2, 2.0);
+    const std::string bow = pt(api.cam, -0.8, 3.2, 1.0) + ", " + pt(api.cam, 0.2, 3.2, 2.0) + ", " +
+                            pt(api.cam, 0.2, 3.2, 1.0) + ", " + pt(api.cam, -0.8, 3.2, 2.0);
+    crossed.replace(crossed.find(poly), poly.size(), bow);
+    FileStorage fb2 = Api::parse(api.call("POST", "api/calibrate", calibrateBody(crossed)));
+    std::string w2;
+    for (const auto& w : fb2["warnings"])
+        w2 += (std::string)w + "\n";
+    EXPECT_NE(w2.find("edges cross"), std::string::npos) << w2;
+}
+
+TEST(AppAnnotate, SaveWritesTheAnnotationFormatAndTheScene) {
+    Api api;
+    ASSERT_FALSE(fs::exists(api.out));
+    // Unfinished work is refused and nothing is written.
+    const std::string half = "{\"lines\": [{\"name\": \"a\", \"segments\": [[1, 2, 3, 4]]}]}";
+    const AnnotateReply bad = api.call("POST", "api/save", calibrateBody(half));
+    EXPECT_EQ(bad.status, 422) << bad.body;
+    EXPECT_NE(bad.body.find("'a' has 1 segment"), std::string::npos) << bad.body;
+    EXPECT_FALSE(fs::exists(api.out));
+
+    const AnnotateReply r = api.call("POST", "api/save", calibrateBody(annotationJson(api.cam)));
+    ASSERT_EQ(r.status, 200) << r.body;
+    const FrameAnnotation a = FrameAnnotation::read(api.out);
+    ASSERT_EQ(a.lines.size(), 2u);
+    EXPECT_EQ(a.lines[0].name, "floor_x");
+    EXPECT_EQ(a.lines[0].axis, AxisHint::HORIZONTAL);
+    const Point2d p = api.cam.project(Vec3d(-1.8, 2.0, 0));
+    EXPECT_NEAR(a.lines[0].segments[0][0], p.x, 1e-3);
+    EXPECT_NEAR(a.lines[0].segments[0][1], p.y, 1e-3);
+    EXPECT_EQ(a.image_size, Size(640, 480));
+    EXPECT_EQ(a.camera_height, 1.45);
+    EXPECT_EQ(a.room.faces.at("front"), -1.5);
+    ASSERT_EQ(a.lights.size(), 1u);
+    // The scene is vbme calibrate's.
+    const Scene s = Scene::read(api.scene);
+    EXPECT_NEAR(s.camera.K(0, 0), 450, 0.45);
+    EXPECT_NEAR(s.room.max[1], 3.2, 0.01);
+    // Reopening: api/info returns the saved annotation.
+    AnnotateConfig c;
+    c.video = "synthetic";
+    c.out = api.out;
+    c.annotation = api.out;
+    std::map<int, Mat> frames;
+    frames[0] = Mat(480, 640, CV_8UC3, Scalar::all(128));
+    AnnotateSession reopened(c, frames);
+    reopened.setPort(8123);
+    AnnotateRequest req;
+    req.method = "GET";
+    req.path = "/" + reopened.token() + "/api/info";
+    req.headers = {{"host", "localhost:8123"}};
+    const AnnotateReply info = reopened.handle(req);
+    ASSERT_EQ(info.status, 200);
+    FileStorage fi = Api::parse(info);
+    EXPECT_EQ((std::string)fi["annotation"]["lines"][1]["name"], "floor_y");
+    EXPECT_EQ((int)fi["annotation"]["lines"][0]["segments"].size(), 2);
+}
+
+TEST(AppAnnotate, BadRequestsGet4xxWithAMessage) {
+    Api api;
+    auto expect = [&](const AnnotateReply& r, int status, const std::string& words) {
+        EXPECT_EQ(r.status, status) << r.body;
+        EXPECT_EQ(r.content_type, "application/json");
+        EXPECT_NE(r.body.find(words), std::string::npos) << r.body;
+    };
+    expect(api.call("POST", "api/calibrate", "not json"), 400, "not JSON");
+    expect(api.call("POST", "api/calibrate", "[1, 2]"), 400, "JSON object");
+    expect(api.call("POST", "api/calibrate", "{\"frame\": 0}"), 400, "annotation");
+    expect(api.call("POST", "api/calibrate", calibrateBody("{\"lines\": 5}")), 400, "lines");
+    expect(api.call("POST", "api/calibrate",
+                    calibrateBody("{\"camera_height\": \"tall\", \"lines\": []}")),
+           400, "camera_height");
+    expect(api.call("POST", "api/calibrate", "{\"frame\": 7, \"annotation\": {}}"), 404, "frame 7");
+    expect(api.call("GET", "api/frame?i=-3"), 400, "frame index");
+    expect(api.call("GET", "api/calibrate"), 405, "method");
+    expect(api.call("GET", "api/nothing"), 404, "no such API");
+    expect(api.call("GET", "../../etc/passwd"), 404, "not found");
+    expect(api.call("POST", "api/calibrate", std::string(70 * 1024, ' ')), 413, "larger");
+    // The frame itself.
+    const AnnotateReply png = api.call("GET", "api/frame?i=0");
+    EXPECT_EQ(png.status, 200);
+    EXPECT_EQ(png.content_type, "image/png");
+    const Mat decoded =
+        imdecode(std::vector<uchar>(png.body.begin(), png.body.end()), IMREAD_COLOR);
+    EXPECT_EQ(decoded.size(), Size(640, 480));
+}
+
+TEST(AppAnnotate, TokenHostAndOriginAreChecked) {
+    Api api;
+    AnnotateRequest r;
+    r.method = "GET";
+    r.headers = {{"host", "127.0.0.1:8123"}};
+    r.path = "/" + api.session->token() + "/index.html";
+    const AnnotateReply ok = api.session->handle(r);
+    EXPECT_EQ(ok.status, 200);
+    EXPECT_NE(ok.body.find("app.js"), std::string::npos);
+
+    std::string wrong = api.session->token();
+    wrong[5] = wrong[5] == 'a' ? 'b' : 'a';
+    for (const std::string& p : {"/" + wrong + "/index.html", std::string("/index.html"),
+                                 std::string("/"), "/" + wrong + "/api/info"}) {
+        r.path = p;
+        EXPECT_EQ(api.session->handle(r).status, 403) << p;
+    }
+    r.path = "/" + api.session->token() + "/api/info";
+    EXPECT_EQ(api.session->handle(r).status, 200);
+    r.headers["origin"] = "http://evil.example";
+    const AnnotateReply foreign = api.session->handle(r);
+    EXPECT_EQ(foreign.status, 403);
+    EXPECT_NE(foreign.body.find("Origin"), std::string::npos);
+    r.headers["origin"] = "http://127.0.0.1:8123";
+    EXPECT_EQ(api.session->handle(r).status, 200);
+    r.headers["host"] = "rebound.example:8123";  // DNS rebinding
+    EXPECT_EQ(api.session->handle(r).status, 403);
+    r.headers.erase("host");
+    EXPECT_EQ(api.session->handle(r).status, 403);
+}
+
+TEST(AppAnnotate, RealServerOnLoopback) {
+    Api api;
+    vbme_app::AnnotateServer server(api.session, 0);
+    ASSERT_GT(server.port(), 0);
+    std::thread t([&] { server.run(); });
+    httplib::Client cli("127.0.0.1", server.port());
+    cli.set_connection_timeout(5);
+    // Wait until it accepts.
+    auto page = cli.Get(("/" + api.session->token() + "/").c_str());
+    for (int i = 0; i < 100 && !page; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        page = cli.Get(("/" + api.session->token() + "/").c_str());
+    }
+    ASSERT_TRUE(page);
+    EXPECT_EQ(page->status, 200);
+    EXPECT_NE(page->get_header_value("Content-Type").find("text/html"), std::string::npos);
+    EXPECT_FALSE(page->get_header_value("Content-Security-Policy").empty());
+    auto noToken = cli.Get("/api/info");
+    ASSERT_TRUE(noToken);
+    EXPECT_EQ(noToken->status, 403);
+    auto foreign = cli.Get(("/" + api.session->token() + "/api/info").c_str(),
+                           {{"Origin", "http://evil.example"}});
+    ASSERT_TRUE(foreign);
+    EXPECT_EQ(foreign->status, 403);
+    auto cal = cli.Post(("/" + api.session->token() + "/api/calibrate").c_str(),
+                        calibrateBody(annotationJson(api.cam, false)), "application/json");
+    ASSERT_TRUE(cal);
+    EXPECT_EQ(cal->status, 200) << cal->body;
+    server.stop();
+    t.join();
+}
+
+TEST(AppAnnotate, ObjectPreviewIsADifferentialRenderIntoTheFrame) {
+    vbme_test::ScratchDir dir;
+    // A 320x240 version of the known camera, and a standing 0.4 m cube.
+    Camera cam = truthCamera();
+    cam.image_size = Size(320, 240);
+    cam.K = Matx33d(225, 0, 159.5, 0, 225, 119.5, 0, 0, 1);
+    {
+        std::ofstream cube(dir / "cube.obj");
+        for (int i = 0; i < 8; ++i)
+            cube << "v " << (i & 1 ? 0.2 : -0.2) << " " << (i & 2 ? 0.2 : -0.2) << " "
+                 << (i & 4 ? 0.4 : 0.0) << "\n";
+        cube << "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+    }
+    AnnotateConfig c;
+    c.video = "synthetic";
+    c.out = dir / "a.yml";
+    c.object = dir / "cube.obj";
+    std::map<int, Mat> frames;
+    frames[0] = drawSyntheticRoom(cam, truthRoom(), 0.5, 1.0, 3);
+    AnnotateSession s(c, frames);
+    s.setPort(8123);
+    AnnotateRequest r;
+    r.method = "POST";
+    r.path = "/" + s.token() + "/api/preview";
+    r.headers = {{"host", "127.0.0.1:8123"}};
+    const Point2d place = cam.project(Vec3d(-0.8, 2.2, 0));
+    r.body = format(
+        "{\"frame\": 0, \"spp\": 2, \"annotation\": %s, \"placement\": {\"place\": "
+        "[%.3f, %.3f], \"scale\": 1, \"rotate_deg\": 30}}",
+        annotationJson(cam).c_str(), place.x, place.y);
+    const AnnotateReply rep = s.handle(r);
+    ASSERT_EQ(rep.status, 200) << rep.body;
+    ASSERT_EQ(rep.content_type, "image/png");
+    Mat img = imdecode(std::vector<uchar>(rep.body.begin(), rep.body.end()), IMREAD_COLOR);
+    ASSERT_EQ(img.size(), frames[0].size());
+    Mat diff;
+    absdiff(img, frames[0], diff);
+    // The cube's middle: 0.2 m above the placed floor point; the far top-left corner.
+    const Point2d mid = cam.project(Vec3d(-0.8, 2.2, 0.2));
+    const double at_object = mean(diff(Rect(cvRound(mid.x) - 4, cvRound(mid.y) - 4, 8, 8)))[1];
+    const double far_away = mean(diff(Rect(0, 0, 20, 20)))[1];
+    std::printf("|preview - frame|: %.1f levels on the object, %.2f in the far corner\n", at_object,
+                far_away);
+    EXPECT_GT(at_object, 10.0);
+    EXPECT_LT(far_away, 1.0);
+    // Not on the floor: 422 with the reason; without --object: 404.
+    r.body = format("{\"annotation\": %s, \"placement\": {\"place\": [160, 5]}}",
+                    annotationJson(cam).c_str());
+    EXPECT_EQ(s.handle(r).status, 422);
+    Api api;
+    EXPECT_EQ(api.call("POST", "api/preview", "{}").status, 404);
+}
+
+TEST(AppAnnotate, CommandLineChecksBeforeServing) {
+    const std::string exe = VBME_EXE;
+    vbme_test::ScratchDir dir;
+    fs::create_directories(dir / "frames");
+    imwrite(dir / "frames/00000.png", Mat(48, 64, CV_8UC3, Scalar::all(90)));
+    auto r = vbme_test::run(exe + " annotate --video " + (dir / "frames"));
+    EXPECT_EQ(r.code, 2) << r.output;  // --out is required
+    EXPECT_NE(r.output.find("--out"), std::string::npos) << r.output;
+    { std::ofstream(dir / "taken.yml") << "lines: []\n"; }
+    r = vbme_test::run(exe + " annotate --video " + (dir / "frames") + " --out " +
+                       (dir / "taken.yml"));
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("--force"), std::string::npos) << r.output;
+    r = vbme_test::run(exe + " annotate --video " + (dir / "frames") + " --frame 3 --out " +
+                       (dir / "a.yml"));
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("frame 3"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir / "a.yml"));
+}
+
+#endif  // VBME_HAVE_ANNOTATE
