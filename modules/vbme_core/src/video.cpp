@@ -347,6 +347,7 @@ struct VideoReader::Impl {
     int unknown_lost = 0;           // frames the decoder reported lost without a time
     std::string read_error;
     bool end_noted = false;
+    bool count_estimated = false;  // count from a duration, not the container's frame count
     int64_t steady_ticks = 0;  // the interval between frames so far, while it is one
     int steady_count = 0;
     bool steady_broken = false;
@@ -425,8 +426,11 @@ void VideoReader::Impl::openVideo() {
         std::abs(av_q2d(st->r_frame_rate) / av_q2d(st->avg_frame_rate) - 1) < 0.01)
         frame_ticks = av_rescale_q(1, av_inv_q(st->r_frame_rate), tb);
     count = st->nb_frames > 0 ? (int)st->nb_frames : -1;
+    count_estimated = count < 0;
     if (count < 0 && st->duration > 0 && fps > 0)
         count = (int)std::lround(st->duration * av_q2d(tb) * fps);
+    if (count < 0 && fmt->duration > 0 && fps > 0)  // e.g. Matroska: the segment's duration
+        count = (int)std::lround(fmt->duration / (double)AV_TIME_BASE * fps);
     bit_rate = st->codecpar->bit_rate > 0 ? st->codecpar->bit_rate : 0;
     if (bit_rate == 0 && fmt->bit_rate > 0 && fmt->nb_streams == 1) bit_rate = fmt->bit_rate;
     if (bit_rate == 0 && st->nb_frames > 0 && st->duration > 0) {
@@ -609,7 +613,10 @@ bool VideoReader::Impl::fill() {
             if (opt.strict) CV_Error(Error::StsError, msg);
             note(msg);
         }
-        if (count > 0 && pos + (int)queue.size() < count && !end_noted) {
+        const int got_frames = pos + (int)queue.size();
+        // an estimated count (duration x average rate) is trusted to 5 % and a frame
+        if (count > 0 && !end_noted &&
+            (count_estimated ? got_frames < 0.95 * count - 1 : got_frames < count)) {
             end_noted = true;
             const int got = pos + (int)queue.size();
             const std::string msg = format(
