@@ -3,9 +3,12 @@
 // failure, --force.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -195,6 +198,72 @@ TEST(AppInpaint, VideoWithMaskFolder) {
                                    dir / "nope" + " --out " + out2);
     EXPECT_EQ(r3.code, 1) << r3.output;
     EXPECT_FALSE(fs::exists(out2));
+}
+
+// The Blender clip of test_inpaint_consensus.cpp (static camera) through the command line:
+// the default consensus fill with shadow removal against --fill nearest (the earlier method),
+// measured against the clean plate inside the holes.
+TEST(AppInpaint, BlenderClipConsensusAndShadows) {
+    vbme_test::ScratchDir dir;
+    const std::string data = std::string(VBME_TEST_DATA_DIR) + "/inpaint_static";
+    fs::create_directories(dir / "masks");
+    std::vector<Mat> holes, clean;
+    {
+        cv::vbme::VideoReader rc(data + "/clean.mkv");
+        Mat c;
+        for (int i = 0; rc.read(c); ++i) {
+            const Mat ball = imread(data + format("/ball_%05d.png", i), IMREAD_GRAYSCALE);
+            ASSERT_FALSE(ball.empty());
+            Mat hole;
+            dilate(ball > 0, hole, getStructuringElement(MORPH_ELLIPSE, Size(9, 9)));
+            imwrite(dir / ("masks/" + cv::vbme::maskFileName(i)), hole);
+            holes.push_back(hole);
+            clean.push_back(c.clone());
+        }
+    }
+    ASSERT_GE(holes.size(), 20u);
+    auto psnr = [&](const std::string& video, const std::vector<Mat>& masks) {
+        cv::vbme::VideoReader r(video);
+        Mat f;
+        double se = 0, n = 0;
+        for (size_t t = 0; r.read(f) && t < masks.size(); ++t) {
+            Mat d;
+            absdiff(f, clean[t], d);
+            d.convertTo(d, CV_64F);
+            d = d.mul(d);
+            const Scalar s = sum(d.setTo(0, masks[t] == 0));
+            se += s[0] + s[1] + s[2];
+            n += 3.0 * countNonZero(masks[t]);
+        }
+        return 10 * std::log10(255.0 * 255.0 * n / std::max(se, 1e-9));
+    };
+    const std::string base =
+        kExe + " inpaint --quiet --video " + data + "/frames.mkv --masks " + dir / "masks";
+    auto r = vbme_test::run(base + " --out " + dir / "consensus.mkv");
+    ASSERT_EQ(r.code, 0) << r.output;
+    r = vbme_test::run(base + " --fill nearest --out " + dir / "nearest.mkv");
+    ASSERT_EQ(r.code, 0) << r.output;
+    const double ours = psnr(dir / "consensus.mkv", holes);
+    const double nearest = psnr(dir / "nearest.mkv", holes);
+    std::printf("[ app ] PSNR in holes: consensus %.2f dB, --fill nearest %.2f dB\n", ours,
+                nearest);
+    EXPECT_GE(ours, 32.0);
+    EXPECT_GE(ours, nearest + 3.0);
+    // Outside the holes, the default --shadows remove changes the shadow's pixels.
+    cv::vbme::VideoReader in(data + "/frames.mkv"), removed(dir / "consensus.mkv");
+    Mat a, c;
+    int changed = 0;
+    for (size_t t = 0; in.read(a) && removed.read(c) && t < holes.size(); ++t) {
+        Mat d;
+        absdiff(a, c, d);
+        d.setTo(0, holes[t]);
+        changed += countNonZero(d.reshape(1));
+    }
+    EXPECT_GT(changed, 0) << "--shadows remove changes the shadow outside the holes";
+    // Usage: an unknown shadow mode is a usage error.
+    r = vbme_test::run(base + " --shadows erase --out " + dir / "x.mkv");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_FALSE(fs::exists(dir / "x.mkv"));
 }
 
 }  // namespace

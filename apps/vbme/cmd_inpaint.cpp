@@ -19,8 +19,9 @@ namespace {
 struct InpaintOptions {
     std::string image, mask, video, masks, out;
     std::string method = "patchmatch";
+    std::string fill = "consensus", shadows = "remove", align = "flow";
     int patch = 9;
-    int radius = 6;
+    int radius = 0;
     bool rgb = false;
     unsigned long long seed = 0;
     cv::vbme::VideoSinkOptions encode;
@@ -80,10 +81,31 @@ void runVideo(const InpaintOptions& o) {
                          cv::format("mask of frame %d is missing: expected '%s'", i,
                                     maskPath(i).c_str()));
 
-    cv::vbme::VideoInpainter::Params vp;
-    vp.exemplar = exemplarParams(o);
-    vp.temporal_radius = o.radius;
-    cv::Ptr<cv::vbme::VideoInpainter> vi = cv::vbme::VideoInpainter::create(vp);
+    // Both fills stream: push a frame, pop what is finished.
+    cv::Ptr<cv::vbme::VideoInpainter> vi;
+    cv::Ptr<cv::vbme::ConsensusInpainter> ci;
+    if (o.fill == "nearest") {
+        cv::vbme::VideoInpainter::Params vp;
+        vp.exemplar = exemplarParams(o);
+        vp.temporal_radius = o.radius > 0 ? o.radius : 6;
+        vi = cv::vbme::VideoInpainter::create(vp);
+    } else {
+        cv::vbme::ConsensusInpainter::Params cp;
+        cp.exemplar = exemplarParams(o);
+        cp.temporal_radius = o.radius;
+        cp.shadows = cv::vbme::parseShadowMode(o.shadows);
+        cp.alignment = o.align == "none"         ? cv::vbme::CONSENSUS_ALIGN_NONE
+                       : o.align == "homography" ? cv::vbme::CONSENSUS_ALIGN_HOMOGRAPHY
+                                                 : cv::vbme::CONSENSUS_ALIGN_FLOW;
+        ci = cv::vbme::ConsensusInpainter::create(cp);
+    }
+    auto push = [&](const cv::Mat& f, const cv::Mat& m) {
+        if (vi)
+            vi->push(f, m);
+        else
+            ci->push(f, m);
+    };
+    auto pop = [&](cv::Mat& f) { return vi ? vi->pop(f) : ci->pop(f); };
     // the input's timestamps, colour tags and audio go to the output
     cv::vbme::VideoSink sink(o.out, reader.fps(), reader.frameSize(),
                              cv::vbme::sinkOptionsFrom(reader, o.out, o.encode));
@@ -102,16 +124,19 @@ void runVideo(const InpaintOptions& o) {
             CV_Error(cv::Error::StsBadSize,
                      cv::format("mask '%s' is %dx%d but the video frames are %dx%d", mp.c_str(),
                                 mask.cols, mask.rows, frame.cols, frame.rows));
-        vi->push(frame, mask);
+        push(frame, mask);
         ++i;
-        while (vi->pop(filled)) {
+        while (pop(filled)) {
             put(filled);
             progress.tick();
         }
     }
     if (i == 0) CV_Error(cv::Error::StsError, "video '" + o.video + "' has no frames");
-    vi->finish();
-    while (vi->pop(filled)) {
+    if (vi)
+        vi->finish();
+    else
+        ci->finish();
+    while (pop(filled)) {
         put(filled);
         progress.tick();
     }
@@ -122,9 +147,10 @@ void runVideo(const InpaintOptions& o) {
 void setupInpaint(CLI::App& app) {
     auto opt = std::make_shared<InpaintOptions>();
     app.footer(
-        "Remove an object by exemplar-based inpainting.\n"
+        "Remove an object by exemplar-based inpainting (image) or by the consensus of aligned "
+        "frames, with its cast shadow (video).\n"
         "  image: vbme inpaint --image IN.png --mask HOLE.png --out OUT.png\n"
-        "  video: vbme inpaint --video IN.mp4 --masks DIR --out OUT.mp4\n"
+        "  video: vbme inpaint --video IN.mp4 --masks DIR --out OUT.mp4 [--shadows keep|remove]\n"
         "Masks are 8-bit, non-zero = hole (255 = object); a video's are DIR/mask_%05d.png from "
         "frame 0, as 'vbme track' writes them.");
     auto* image = app.add_option("--image", opt->image, "Input image");
@@ -141,8 +167,20 @@ void setupInpaint(CLI::App& app) {
             [](std::string& s) { return std::stoi(s) % 2 == 1 ? std::string() : "must be odd"; },
             "ODD"));
     app.add_option("--radius", opt->radius,
-                   "Video: neighbouring frames on each side used to fill a frame")
+                   "Video: neighbouring frames on each side used to fill a frame (0 = from the "
+                   "object's motion for the consensus fill, 6 for the nearest fill)")
         ->check(CLI::Range(0, 100));
+    app.add_option("--fill", opt->fill,
+                   "Video: consensus (default: a robust vote of aligned frames) or nearest (each "
+                   "pixel from the nearest frame that sees it, the earlier method)")
+        ->check(CLI::IsMember({"consensus", "nearest"}));
+    app.add_option("--shadows", opt->shadows,
+                   "Video, consensus fill: remove (default) or keep the object's cast shadow")
+        ->check(CLI::IsMember({"keep", "remove"}));
+    app.add_option("--align", opt->align,
+                   "Video, consensus fill: flow (default: homography + dense flow where there is "
+                   "parallax), homography, or none (static camera, fastest)")
+        ->check(CLI::IsMember({"flow", "homography", "none"}));
     app.add_flag("--rgb", opt->rgb, "Measure patch distances in RGB instead of CIE Lab");
     app.add_option("--seed", opt->seed, "Seed of the randomised search");
     image->excludes(video)->excludes(masks)->needs(mask);
@@ -164,7 +202,7 @@ void setupInpaint(CLI::App& app) {
 
 }  // namespace
 
-VBME_REGISTER_COMMAND("inpaint", "Remove an object from an image or a video by exemplar inpainting",
+VBME_REGISTER_COMMAND("inpaint", "Remove an object (and its shadow) from an image or a video",
                       setupInpaint);
 
 }  // namespace vbme_app

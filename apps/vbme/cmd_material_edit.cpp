@@ -54,6 +54,10 @@ void setupMaterialEdit(CLI::App& app) {
     app.add_option("--inpaint", p.inpaint,
                    "background (static camera, fast) or video (aligned neighbours, slower)")
         ->check(CLI::IsMember({"background", "video"}));
+    app.add_option("--shadows", p.shadows,
+                   "The original ball's cast shadow: keep (default; the new ball casts none of "
+                   "its own) or remove")
+        ->check(CLI::IsMember({"keep", "remove"}));
     app.add_option("--response", p.response, "Camera response: srgb, gamma2.2 or linear")
         ->check(CLI::IsMember({"srgb", "gamma2.2", "linear"}));
     app.add_option("--samples", p.samples, "Samples per pixel for rough lobes")

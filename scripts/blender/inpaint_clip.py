@@ -14,7 +14,9 @@ Needs ffmpeg (Debian package) for the FFV1 files.
 
 Usage (from the repository root):
   blender -b -P scripts/blender/inpaint_clip.py -- --case static --out DIR [--frames 24]
-      [--width 320 --height 180 --samples 48]
+      [--width 320 --height 180 --samples 48] [--grain] [--travel 1.8]
+The committed clips: test/data/inpaint_static (--case static) and test/data/inpaint_pan
+(--case pan --frames 20 --samples 32 --grain --travel 1.0).
 Cases: "static" (a tripod-less but standing camera: small hand-held shake) and "pan" (the
 camera travels sideways and turns, so that floor, crate and wall move with parallax).
 Renders are deterministic (fixed Cycles seed, same for every frame).
@@ -38,6 +40,8 @@ ap.add_argument("--frames", type=int, default=24)
 ap.add_argument("--width", type=int, default=320)
 ap.add_argument("--height", type=int, default=180)
 ap.add_argument("--samples", type=int, default=48)
+ap.add_argument("--grain", action="store_true", help="2-D grain on the floor's bands")
+ap.add_argument("--travel", type=float, default=1.8, help="pan: the camera's sideways travel (m)")
 args = ap.parse_args(argv)
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -95,7 +99,25 @@ mix.blend_type = "MULTIPLY"
 mix.inputs["Fac"].default_value = 1.0
 nt.links.new(ramp.outputs["Color"], mix.inputs["Color1"])
 nt.links.new(checker.outputs["Color"], mix.inputs["Color2"])
-nt.links.new(mix.outputs["Color"], bsdf.inputs["Base Color"])
+if args.grain:
+    # Fine 2-D grain (knots, pores): the bands alone are nearly one-dimensional, which
+    # leaves an aligner nothing to lock onto along them.
+    grain = nt.nodes.new("ShaderNodeTexNoise")
+    grain.inputs["Scale"].default_value = 40.0
+    grain.inputs["Detail"].default_value = 4.0
+    nt.links.new(tc.outputs["Object"], grain.inputs["Vector"])
+    gr = nt.nodes.new("ShaderNodeValToRGB")
+    gr.color_ramp.elements[0].color = (0.7, 0.7, 0.7, 1)
+    gr.color_ramp.elements[1].color = (1.2, 1.2, 1.2, 1)
+    nt.links.new(grain.outputs["Fac"], gr.inputs["Fac"])
+    mix2 = nt.nodes.new("ShaderNodeMixRGB")
+    mix2.blend_type = "MULTIPLY"
+    mix2.inputs["Fac"].default_value = 1.0
+    nt.links.new(mix.outputs["Color"], mix2.inputs["Color1"])
+    nt.links.new(gr.outputs["Color"], mix2.inputs["Color2"])
+    nt.links.new(mix2.outputs["Color"], bsdf.inputs["Base Color"])
+else:
+    nt.links.new(mix.outputs["Color"], bsdf.inputs["Base Color"])
 bsdf.inputs["Roughness"].default_value = 0.8
 bsdf.inputs["Specular"].default_value = 0.2
 
@@ -195,8 +217,9 @@ def place(i):
         roll = math.radians(0.3) * smooth(i, 2)
         eye.z += 0.004 * smooth(i, 1)
     else:
-        eye = Vector((-0.9 + 1.8 * u, -2.6 + 0.2 * u, 1.15 + 0.004 * smooth(i, 1)))
-        target = Vector((-0.2 + 0.4 * u, 0.9, 0.25))
+        h = args.travel / 2
+        eye = Vector((-h + 2 * h * u, -2.6 + 0.2 * u, 1.15 + 0.004 * smooth(i, 1)))
+        target = Vector((-0.2 * h / 0.9 + 0.4 * h / 0.9 * u, 0.9, 0.25))
         roll = math.radians(0.3) * smooth(i, 2)
     cam.location = eye
     d = target - eye

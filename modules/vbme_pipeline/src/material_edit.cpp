@@ -137,113 +137,21 @@ struct FrameItem {
     Rect hole_box;
 };
 
-/** Static-camera background fill: each hole pixel from the nearest frame (past, or up to
-`lookahead` frames ahead) in which it is not hidden; what no frame sees keeps the fill it got
-before; the rest by exemplars on a crop around the hole. */
-class BackgroundFill {
+/** The object's removal: vbme_inpaint's ConsensusInpainter (a robust vote of the frames within
+±radius that see each hole pixel, without alignment for a static camera or aligned by
+homography and dense flow), with the frames' bookkeeping alongside. */
+class RemovalFill {
 public:
-    BackgroundFill(int lookahead, const ExemplarInpainter::Params& ep)
-        : lookahead_(std::max(0, lookahead)), exemplar_(ExemplarInpainter::create(ep)) {}
+    explicit RemovalFill(const ConsensusInpainter::Params& p)
+        : ci_(ConsensusInpainter::create(p)) {}
     void push(FrameItem&& it) {
-        q_.push_back(std::move(it));
-        while ((int)q_.size() > lookahead_)
-            process();
-    }
-    void finish() {
-        while (!q_.empty())
-            process();
-    }
-    bool pop(FrameItem& it, Mat& filled) {
-        if (done_.empty()) return false;
-        it = std::move(done_.front().first);
-        filled = done_.front().second;
-        done_.pop_front();
-        return true;
-    }
-    int temporal = 0, exemplar = 0;
-
-private:
-    void process() {
-        FrameItem it = std::move(q_.front());
-        q_.pop_front();
-        const int W = it.frame.cols, H = it.frame.rows;
-        if (last_.empty()) {
-            last_.create(H, W, CV_8UC3);
-            last_idx_.create(H, W, CV_32S);
-            last_idx_.setTo(-1);
-            prev_.create(H, W, CV_8UC3);
-            prev_ok_ = Mat::zeros(H, W, CV_8U);
-        }
-        Mat out = it.frame.clone();
-        Mat rest = Mat::zeros(H, W, CV_8U);
-        int nrest = 0;
-        const Rect b = it.hole_box;
-        for (int y = b.y; y < b.y + b.height; y++) {
-            const uchar* h = it.hole.ptr<uchar>(y);
-            Vec3b* o = out.ptr<Vec3b>(y);
-            for (int x = b.x; x < b.x + b.width; x++) {
-                if (!h[x]) continue;
-                const int li = last_idx_.at<int>(y, x);
-                const int dpast = li >= 0 ? it.index - li : INT_MAX;
-                int dfut = INT_MAX, kf = -1;
-                for (int k = 0; k < (int)q_.size() && k + 1 < dpast; k++)
-                    if (!q_[k].hole.at<uchar>(y, x)) {
-                        dfut = k + 1;
-                        kf = k;
-                        break;
-                    }
-                if (dpast != INT_MAX && dpast <= dfut) {
-                    o[x] = last_.at<Vec3b>(y, x);
-                    ++temporal;
-                } else if (kf >= 0) {
-                    o[x] = q_[kf].frame.at<Vec3b>(y, x);
-                    ++temporal;
-                } else if (prev_ok_.at<uchar>(y, x)) {
-                    o[x] = prev_.at<Vec3b>(y, x);
-                } else {
-                    rest.at<uchar>(y, x) = 255;
-                    ++nrest;
-                }
-            }
-        }
-        if (nrest > 0) {
-            // Exemplars on a crop around the hole (with context for patches).
-            const int m = std::max(48, std::max(b.width, b.height));
-            const Rect crop =
-                Rect(b.x - m, b.y - m, b.width + 2 * m, b.height + 2 * m) & Rect(0, 0, W, H);
-            Mat filled;
-            exemplar_->inpaint(out(crop), rest(crop), filled);
-            filled.copyTo(out(crop), rest(crop));
-            exemplar += nrest;
-            out.copyTo(prev_, rest);
-            prev_ok_.setTo(255, rest);
-        }
-        // This frame's visible pixels become the most recent view of the background.
-        Mat seen;
-        bitwise_not(it.hole, seen);
-        it.frame.copyTo(last_, seen);
-        last_idx_.setTo(it.index, seen);
-        done_.emplace_back(std::move(it), out);
-    }
-    int lookahead_;
-    Ptr<ExemplarInpainter> exemplar_;
-    std::deque<FrameItem> q_;
-    std::deque<std::pair<FrameItem, Mat>> done_;
-    Mat last_, last_idx_, prev_, prev_ok_;
-};
-
-/** VideoInpainter adapter with the BackgroundFill interface (moving cameras). */
-class VideoFill {
-public:
-    explicit VideoFill(const VideoInpainter::Params& vp) : vi_(VideoInpainter::create(vp)) {}
-    void push(FrameItem&& it) {
-        vi_->push(it.frame, it.hole);
+        ci_->push(it.frame, it.hole);
         q_.push_back(std::move(it));
     }
-    void finish() { vi_->finish(); }
+    void finish() { ci_->finish(); }
     bool pop(FrameItem& it, Mat& filled) {
-        VideoInpainter::FrameStats st;
-        if (!vi_->pop(filled, &st)) return false;
+        ConsensusInpainter::FrameStats st;
+        if (!ci_->pop(filled, &st)) return false;
         it = std::move(q_.front());
         q_.pop_front();
         temporal += st.temporal + st.previous;
@@ -253,7 +161,7 @@ public:
     int temporal = 0, exemplar = 0;
 
 private:
-    Ptr<VideoInpainter> vi_;
+    Ptr<ConsensusInpainter> ci_;
     std::deque<FrameItem> q_;
 };
 
@@ -359,6 +267,7 @@ MaterialEditReport runMaterialEdit(const MaterialEditParams& p) {
     Vec3d fixed_dir;
     parseLightSpec(p.light, fixed_light, fixed_dir);
     const Response response = parseResponse(p.response);
+    const ShadowMode shadows = parseShadowMode(p.shadows);
     checkOverwrite(p.out, p.force);
     const fs::path inter = p.intermediates;
     if (!inter.empty()) {
@@ -415,16 +324,12 @@ MaterialEditReport runMaterialEdit(const MaterialEditParams& p) {
     }
     ExemplarInpainter::Params ep;
     ep.method = PATCH_SEARCH_PATCHMATCH;
-    std::unique_ptr<BackgroundFill> bfill;
-    std::unique_ptr<VideoFill> vfill;
-    if (p.inpaint == "video") {
-        VideoInpainter::Params vp;
-        vp.exemplar = ep;
-        vp.temporal_radius = std::max(1, p.lookahead);
-        vfill.reset(new VideoFill(vp));
-    } else {
-        bfill.reset(new BackgroundFill(p.lookahead, ep));
-    }
+    ConsensusInpainter::Params cp;
+    cp.exemplar = ep;
+    cp.temporal_radius = std::max(1, p.lookahead);
+    cp.alignment = p.inpaint == "video" ? CONSENSUS_ALIGN_FLOW : CONSENSUS_ALIGN_NONE;
+    cp.shadows = shadows;
+    RemovalFill fill(cp);
 
     Progress progress("material-edit", std::max(0, reader.frameCount()));
     Disk last_good;
@@ -559,7 +464,7 @@ MaterialEditReport runMaterialEdit(const MaterialEditParams& p) {
             bool got;
             {
                 StageTimer t(sec[INPAINTING]);
-                got = bfill ? bfill->pop(it, filled) : vfill->pop(it, filled);
+                got = fill.pop(it, filled);
             }
             if (!got) break;
             processDone(it, filled);
@@ -605,10 +510,7 @@ MaterialEditReport runMaterialEdit(const MaterialEditParams& p) {
         }
         {
             StageTimer t(sec[INPAINTING]);
-            if (bfill)
-                bfill->push(std::move(it));
-            else
-                vfill->push(std::move(it));
+            fill.push(std::move(it));
         }
         // Decode the next frame in its own thread while this one is processed.
         Mat next_frame;
@@ -623,10 +525,7 @@ MaterialEditReport runMaterialEdit(const MaterialEditParams& p) {
     } while (true);
     {
         StageTimer t(sec[INPAINTING]);
-        if (bfill)
-            bfill->finish();
-        else
-            vfill->finish();
+        fill.finish();
     }
     drain();
 
@@ -645,8 +544,8 @@ MaterialEditReport runMaterialEdit(const MaterialEditParams& p) {
         }
     }
     progress.finish();
-    report.pixels_temporal = bfill ? bfill->temporal : vfill->temporal;
-    report.pixels_exemplar = bfill ? bfill->exemplar : vfill->exemplar;
+    report.pixels_temporal = fill.temporal;
+    report.pixels_exemplar = fill.exemplar;
     for (int s = 0; s < NSTAGES; s++)
         report.seconds.emplace_back(kStageNames[s], sec[s]);
     report.total_seconds = std::chrono::duration<double>(Clock::now() - t_start).count();

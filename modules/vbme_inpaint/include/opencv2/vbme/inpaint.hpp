@@ -12,9 +12,13 @@ patch is found by one of three searches: a local window (the original paper), a 
 vantage-point tree (the thesis's choice @cite Yianilos1993), or a global randomised search in
 the spirit of PatchMatch @cite Barnes2009 (the default, fastest). Video frames are filled
 first from neighbouring frames where the background is seen (aligned by a homography and
-checked for consistency), then by exemplars, reusing the previous frame's fill for stability.
+checked for consistency), then by exemplars, reusing the previous frame's fill for stability
+(VideoInpainter). ConsensusInpainter instead lets many aligned frames vote for each hole pixel
+(homography and dense flow), leaves out candidates in the object's shadow, and removes the
+object's own cast shadow from the frame.
 */
 
+#include "opencv2/vbme/inpaint/consensus.hpp"
 #include "opencv2/vbme/inpaint/exemplar.hpp"
 #include "opencv2/vbme/inpaint/video.hpp"
 

@@ -50,11 +50,16 @@ struct CV_EXPORTS MaterialEditParams {
     More consecutive lost frames stop the run with an error naming the frame (default 0:
     any lost frame is an error, since a kept disk would leave the real object visible). */
     int max_lost = 0;
-    /** Background filling: "background" (static camera: each hole pixel from the nearest
-    frame, past or up to `lookahead` ahead, that sees it; the rest by exemplars) or "video"
-    (VideoInpainter: aligned neighbours, for moving cameras; much slower). */
+    /** Background filling, both by ConsensusInpainter (a robust vote of the frames within
+    ±`lookahead` that see each hole pixel, leaving out those in the object's shadow; the rest
+    by exemplars): "background" (static camera, no alignment) or "video" (frames aligned by
+    homography and dense flow, for moving cameras; slower). */
     std::string inpaint = "background";
-    int lookahead = 8;                //!< future frames searched by the background fill
+    int lookahead = 8;  //!< frames on each side that vote for the background fill
+    /** The original object's cast shadow: "keep" (default: the new object is rendered
+    without a shadow of its own, so the original one stays) or "remove" (detected near the
+    object and re-lit, ConsensusInpainter::Params::shadows). */
+    std::string shadows = "keep";
     int env_every = 10;               //!< intermediates: write every N-th environment map
     Size env_size = Size(256, 128);   //!< size of the per-frame environment maps
     std::string response = "srgb";    //!< camera response of the video (srgb, gamma2.2, linear)
@@ -97,7 +102,7 @@ marked in frame 0 is tracked (ObjectTracker), its shape recovered (sphere normal
 (fitLighting()) and the environment built from the inpainted frame
 (imageDiskToEnvironment()) or a user HDR, then composited with anti-aliased edges.
 
-Frames are streamed: memory holds `lookahead + 2` frames whatever the video's length. All
+Frames are streamed: memory holds `2·lookahead + 2` frames whatever the video's length. All
 inputs are checked before any output is written; outputs go to temporary names renamed when
 the whole video is done, so a failure leaves nothing half-written. Throws cv::Exception on bad
 input (empty first mask, object lost mid-video, unreadable files, existing outputs without

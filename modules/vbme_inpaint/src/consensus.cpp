@@ -1,0 +1,825 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Streaming consensus video fill: candidates from aligned frames, robust vote, shadow removal.
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <deque>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include "opencv2/vbme/inpaint/consensus.hpp"
+
+namespace cv {
+namespace vbme {
+
+ShadowMode parseShadowMode(const std::string& name) {
+    std::string n = name;
+    for (auto& c : n)
+        c = (char)std::tolower((unsigned char)c);
+    if (n == "keep") return SHADOWS_KEEP;
+    if (n == "remove") return SHADOWS_REMOVE;
+    CV_Error(Error::StsBadArg, "unknown shadow mode '" + name + "' (expected keep or remove)");
+}
+
+std::string toString(ShadowMode m) {
+    return m == SHADOWS_KEEP ? "keep" : "remove";
+}
+
+ConsensusInpainter::Params::Params() = default;
+
+void ConsensusInpainter::Params::read(const FileNode& node) {
+    if (!node["exemplar"].empty()) exemplar.read(node["exemplar"]);
+    auto rd = [&](const char* k, auto& v) {
+        if (!node[k].empty()) {
+            using T = std::decay_t<decltype(v)>;
+            if constexpr (std::is_same<T, bool>::value)
+                v = (int)node[k] != 0;
+            else if constexpr (std::is_same<T, int>::value)
+                v = (int)node[k];
+            else
+                v = (double)node[k];
+        }
+    };
+    rd("temporal_radius", temporal_radius);
+    rd("motion_factor", motion_factor);
+    rd("min_radius", min_radius);
+    rd("max_radius", max_radius);
+    rd("alignment", alignment);
+    rd("features", features);
+    rd("local_reach", local_reach);
+    rd("identity_tolerance", identity_tolerance);
+    rd("max_ring_error", max_ring_error);
+    rd("ring_sigma", ring_sigma);
+    rd("temporal_sigma", temporal_sigma);
+    rd("hole_margin", hole_margin);
+    rd("shadow_reach", shadow_reach);
+    rd("shadow_threshold", shadow_threshold);
+    rd("zone_weight", zone_weight);
+    rd("inlier_distance", inlier_distance);
+    rd("shadows", shadows);
+    rd("shadow_min_area", shadow_min_area);
+    rd("shadow_smooth", shadow_smooth);
+    rd("shadow_relight", shadow_relight);
+    rd("reuse_previous", reuse_previous);
+}
+
+void ConsensusInpainter::Params::write(FileStorage& fs) const {
+    fs << "exemplar"
+       << "{";
+    exemplar.write(fs);
+    fs << "}";
+    fs << "temporal_radius" << temporal_radius << "motion_factor" << motion_factor << "min_radius"
+       << min_radius << "max_radius" << max_radius << "alignment" << alignment << "features"
+       << features << "local_reach" << local_reach << "identity_tolerance" << identity_tolerance
+       << "max_ring_error" << max_ring_error << "ring_sigma" << ring_sigma << "temporal_sigma"
+       << temporal_sigma << "hole_margin" << hole_margin << "shadow_reach" << shadow_reach
+       << "shadow_threshold" << shadow_threshold << "zone_weight" << zone_weight
+       << "inlier_distance" << inlier_distance << "shadows" << shadows << "shadow_min_area"
+       << shadow_min_area << "shadow_smooth" << shadow_smooth << "shadow_relight"
+       << (int)shadow_relight << "reuse_previous" << (int)reuse_previous;
+}
+
+ConsensusInpainter::~ConsensusInpainter() = default;
+
+namespace {
+
+const int kRingWidth = 5;
+const int kMedoidPool = 8;
+
+struct CFrame {
+    int index = 0;
+    Mat image;   // CV_8UC3
+    Mat gray;    // CV_8U
+    Mat hole;    // CV_8U, 255 = hole
+    Mat usable;  // 255 = may give candidates (outside hole + margin)
+    Mat zone;    // 255 = within reach of the hole (its object's shadow may be there)
+    Mat dist;    // CV_32F distance to the hole (large where there is none)
+    int area = 0;
+    double radius = 0;
+    Point2d centroid;
+    Mat toPrev;  // CV_64F 3×3: this frame's pixels → the previous frame's (identity if none)
+    std::vector<KeyPoint> keypoints;
+    Mat descriptors;
+};
+
+struct Candidate {
+    Mat bgr, lab, usable, zone;
+    float weight = 0;
+};
+
+bool nearIdentity(const Mat& H, Size size, double tol) {
+    std::vector<Point2f> c = {Point2f(0, 0), Point2f(float(size.width - 1), 0),
+                              Point2f(float(size.width - 1), float(size.height - 1)),
+                              Point2f(0, float(size.height - 1))};
+    std::vector<Point2f> d;
+    perspectiveTransform(c, d, H);
+    for (size_t i = 0; i < c.size(); ++i)
+        if (norm(c[i] - d[i]) > tol) return false;
+    return true;
+}
+
+inline float lumaOf(const Vec3b& v) {
+    return 0.114f * v[0] + 0.587f * v[1] + 0.299f * v[2];
+}
+
+/** Median absolute difference (mean over channels) on a mask; negative if fewer than 16 px. */
+double ringError(const Mat& a, const Mat& b, const Mat& mask) {
+    std::vector<float> d;
+    d.reserve(1024);
+    for (int y = 0; y < a.rows; ++y) {
+        const uchar* m = mask.ptr<uchar>(y);
+        const Vec3b* pa = a.ptr<Vec3b>(y);
+        const Vec3b* pb = b.ptr<Vec3b>(y);
+        for (int x = 0; x < a.cols; ++x)
+            if (m[x])
+                d.push_back((std::abs(pa[x][0] - pb[x][0]) + std::abs(pa[x][1] - pb[x][1]) +
+                             std::abs(pa[x][2] - pb[x][2])) /
+                            3.f);
+    }
+    if (d.size() < 16) return -1;
+    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+    return d[d.size() / 2];
+}
+
+/** Normalised convolution: fills the flow where @p valid is 0 from its valid surroundings. */
+void completeFlow(Mat& flow, const Mat& valid, double sigma) {
+    Mat w;
+    valid.convertTo(w, CV_32F, 1.0 / 255);
+    Mat fw;
+    {
+        std::vector<Mat> ch;
+        split(flow, ch);
+        ch[0] = ch[0].mul(w);
+        ch[1] = ch[1].mul(w);
+        merge(ch, fw);
+    }
+    // The wide blurs at a quarter of the resolution (the completed flow is smooth anyway).
+    Mat bw, bfw;
+    const double k = sigma >= 8 ? 0.25 : 1.0;
+    if (k < 1) {
+        Mat sw, sfw;
+        resize(w, sw, Size(), k, k, INTER_AREA);
+        resize(fw, sfw, Size(), k, k, INTER_AREA);
+        GaussianBlur(sw, sw, Size(0, 0), sigma * k);
+        GaussianBlur(sfw, sfw, Size(0, 0), sigma * k);
+        resize(sw, bw, w.size(), 0, 0, INTER_LINEAR);
+        resize(sfw, bfw, w.size(), 0, 0, INTER_LINEAR);
+    } else {
+        GaussianBlur(w, bw, Size(0, 0), sigma);
+        GaussianBlur(fw, bfw, Size(0, 0), sigma);
+    }
+    for (int y = 0; y < flow.rows; ++y) {
+        Vec2f* f = flow.ptr<Vec2f>(y);
+        const uchar* v = valid.ptr<uchar>(y);
+        const float* b = bw.ptr<float>(y);
+        const Vec2f* bf = bfw.ptr<Vec2f>(y);
+        for (int x = 0; x < flow.cols; ++x)
+            if (!v[x]) f[x] = b[x] > 1e-4f ? bf[x] / b[x] : Vec2f(0, 0);
+    }
+}
+
+class ConsensusImpl CV_FINAL : public ConsensusInpainter {
+public:
+    explicit ConsensusImpl(const Params& p)
+        : p_(p), exemplar_(ExemplarInpainter::create(p.exemplar)) {
+        if (p_.alignment != CONSENSUS_ALIGN_NONE) orb_ = ORB::create(std::max(50, p_.features));
+        if (p_.temporal_radius > 0) K_ = p_.temporal_radius;
+    }
+
+    void push(InputArray _frame, InputArray _mask) CV_OVERRIDE {
+        if (finished_) CV_Error(Error::StsError, "ConsensusInpainter::push after finish()");
+        CFrame f;
+        f.index = pushed_;
+        f.image = _frame.getMat().clone();
+        if (f.image.empty() || f.image.type() != CV_8UC3)
+            CV_Error(
+                Error::StsBadArg,
+                format("ConsensusInpainter: frame %d is %s, expected a non-empty CV_8UC3 "
+                       "image",
+                       pushed_, f.image.empty() ? "empty" : typeToString(f.image.type()).c_str()));
+        if (size_.area() == 0) size_ = f.image.size();
+        if (f.image.size() != size_)
+            CV_Error(Error::StsBadSize,
+                     format("ConsensusInpainter: frame %d is %dx%d, earlier frames %dx%d", pushed_,
+                            f.image.cols, f.image.rows, size_.width, size_.height));
+        Mat m = _mask.getMat();
+        if (m.empty()) {
+            f.hole = Mat::zeros(size_, CV_8U);
+        } else {
+            if (m.type() != CV_8UC1)
+                CV_Error(Error::StsBadArg, format("ConsensusInpainter: mask %d is %s, expected "
+                                                  "CV_8UC1",
+                                                  pushed_, typeToString(m.type()).c_str()));
+            if (m.size() != size_)
+                CV_Error(Error::StsBadSize,
+                         format("ConsensusInpainter: mask %d is %dx%d but the frame is %dx%d",
+                                pushed_, m.cols, m.rows, size_.width, size_.height));
+            compare(m, 0, f.hole, CMP_NE);
+        }
+        f.area = countNonZero(f.hole);
+        if (f.area > 0) {
+            const Moments mo = moments(f.hole, true);
+            f.centroid = Point2d(mo.m10 / mo.m00, mo.m01 / mo.m00);
+            f.radius = std::sqrt(f.area / CV_PI);
+            Mat inv;
+            bitwise_not(f.hole, inv);
+            distanceTransform(inv, f.dist, DIST_L2, 3);
+            compare(f.dist, p_.hole_margin, f.usable, CMP_GT);
+            compare(f.dist, std::max(1.0, p_.shadow_reach * f.radius), f.zone, CMP_LE);
+        } else {
+            f.dist = Mat(size_, CV_32F, Scalar(1e6f));
+            f.usable = Mat(size_, CV_8U, Scalar(255));
+            f.zone = Mat::zeros(size_, CV_8U);
+        }
+        f.toPrev = Mat::eye(3, 3, CV_64F);
+        if (p_.alignment != CONSENSUS_ALIGN_NONE) {
+            cvtColor(f.image, f.gray, COLOR_BGR2GRAY);
+            orb_->detectAndCompute(f.gray, f.usable, f.keypoints, f.descriptors);
+            if (!window_.empty() && window_.back().index == f.index - 1) {
+                f.toPrev = f.area > 0 ? estimateLocal(f, window_.back()) : Mat();
+                if (f.toPrev.empty()) f.toPrev = estimate(f, window_.back());
+            }
+        }
+        window_.push_back(std::move(f));
+        ++pushed_;
+    }
+
+    void finish() CV_OVERRIDE { finished_ = true; }
+
+    bool pop(OutputArray out, FrameStats* stats, OutputArray shadow) CV_OVERRIDE {
+        const int t = next_;
+        if (t >= pushed_) return false;
+        if (K_ < 0) {
+            if (!finished_ && pushed_ < p_.max_radius + 1) return false;
+            chooseRadius();
+        }
+        if (!finished_ && pushed_ <= t + K_) return false;
+        FrameStats st;
+        Mat shadowMask;
+        Mat result = process(t, st, shadowMask);
+        result.copyTo(out);
+        if (shadow.needed()) shadowMask.copyTo(shadow);
+        if (stats) *stats = st;
+        prev_ = result;
+        prevIndex_ = t;
+        ++next_;
+        while (!window_.empty() && window_.front().index < next_ - std::max(1, K_))
+            window_.pop_front();
+        return true;
+    }
+
+    const Params& params() const CV_OVERRIDE { return p_; }
+
+private:
+    CFrame* frame(int index) {
+        for (auto& f : window_)
+            if (f.index == index) return &f;
+        return nullptr;
+    }
+
+    /** Homography from frame a's pixels to frame b's (identity if it cannot be estimated). */
+    Mat estimate(const CFrame& a, const CFrame& b) {
+        Mat H;
+        if (a.descriptors.rows >= 8 && b.descriptors.rows >= 8) {
+            BFMatcher matcher(NORM_HAMMING);
+            std::vector<std::vector<DMatch>> knn;
+            matcher.knnMatch(a.descriptors, b.descriptors, knn, 2);
+            std::vector<Point2f> pa, pb;
+            for (const auto& m : knn)
+                if (m.size() == 2 && m[0].distance < 0.8f * m[1].distance) {
+                    pa.push_back(a.keypoints[m[0].queryIdx].pt);
+                    pb.push_back(b.keypoints[m[0].trainIdx].pt);
+                }
+            if (pa.size() >= 12) {
+                std::vector<uchar> inl;
+                H = findHomography(pa, pb, RANSAC, 2.0, inl, 2000, 0.999);
+                if (!H.empty() && countNonZero(inl) < 12) H.release();
+            }
+        }
+        if (H.empty()) return Mat::eye(3, 3, CV_64F);
+        // Sub-pixel refinement: corners of a tracked into b by pyramidal Lucas-Kanade from the
+        // positions H predicts, and a homography fitted to them.
+        std::vector<Point2f> ca, cb, ra, rb;
+        goodFeaturesToTrack(a.gray, ca, 500, 0.01, 6, a.usable, 5);
+        if (ca.size() >= 20) {
+            perspectiveTransform(ca, cb, H);
+            std::vector<uchar> ok;
+            std::vector<float> err;
+            calcOpticalFlowPyrLK(a.gray, b.gray, ca, cb, ok, err, Size(21, 21), 2,
+                                 TermCriteria(TermCriteria::COUNT | TermCriteria::EPS, 30, 0.005),
+                                 OPTFLOW_USE_INITIAL_FLOW);
+            for (size_t k = 0; k < ca.size(); ++k) {
+                const Point p(cvRound(cb[k].x), cvRound(cb[k].y));
+                if (ok[k] && Rect(Point(), size_).contains(p) && b.usable.at<uchar>(p)) {
+                    ra.push_back(ca[k]);
+                    rb.push_back(cb[k]);
+                }
+            }
+            if (ra.size() >= 20) {
+                std::vector<uchar> inl;
+                Mat R = findHomography(ra, rb, RANSAC, 0.7, inl, 2000, 0.999);
+                if (!R.empty() && countNonZero(inl) >= 20) H = R;
+            }
+        }
+        if (nearIdentity(H, size_, p_.identity_tolerance)) return Mat::eye(3, 3, CV_64F);
+        return H;
+    }
+
+    /** Homography from frame a's pixels to frame b's fitted around a's hole only: the
+    background next to the object (typically the ground it stands on) is one plane even when
+    the whole view has parallax. Corners within Params::local_reach object radii of the hole
+    (outside its margin) are tracked into b by pyramidal Lucas-Kanade, kept if the track
+    back lands within 0.5 px, and fitted by RANSAC. Empty if too few corners agree. */
+    Mat estimateLocal(const CFrame& a, const CFrame& b) {
+        Mat region, far;
+        compare(a.dist, p_.hole_margin + 1, region, CMP_GT);
+        compare(a.dist, std::max(40.0, p_.local_reach * a.radius), far, CMP_LT);
+        bitwise_and(region, far, region);
+        std::vector<Point2f> pa, pb, back;
+        goodFeaturesToTrack(a.gray, pa, 400, 0.005, 4, region, 5);
+        if (pa.size() < 20) return Mat();
+        std::vector<uchar> ok, okb;
+        std::vector<float> err;
+        const TermCriteria tc(TermCriteria::COUNT | TermCriteria::EPS, 30, 0.01);
+        calcOpticalFlowPyrLK(a.gray, b.gray, pa, pb, ok, err, Size(21, 21), 4, tc);
+        calcOpticalFlowPyrLK(b.gray, a.gray, pb, back, okb, err, Size(21, 21), 4, tc);
+        std::vector<Point2f> ra, rb;
+        for (size_t k = 0; k < pa.size(); ++k) {
+            const Point p(cvRound(pb[k].x), cvRound(pb[k].y));
+            if (ok[k] && okb[k] && norm(back[k] - pa[k]) < 0.5 &&
+                Rect(Point(), size_).contains(p) && b.usable.at<uchar>(p))
+                ra.push_back(pa[k]), rb.push_back(pb[k]);
+        }
+        if (ra.size() < 20) return Mat();
+        std::vector<uchar> inl;
+        Mat H = findHomography(ra, rb, RANSAC, 1.0, inl, 2000, 0.999);
+        if (H.empty() || countNonZero(inl) < 15) return Mat();
+        if (nearIdentity(H, size_, p_.identity_tolerance)) return Mat::eye(3, 3, CV_64F);
+        return H;
+    }
+
+    /** Homography mapping frame t's pixels to frame s's (both in the window). */
+    Mat mapTo(int t, int s) {
+        Mat M = Mat::eye(3, 3, CV_64F);
+        if (s < t) {
+            for (int f = t; f > s; --f)
+                M = frame(f)->toPrev * M;
+        } else if (s > t) {
+            Mat A = Mat::eye(3, 3, CV_64F);  // s → t
+            for (int f = t + 1; f <= s; ++f)
+                A = A * frame(f)->toPrev;
+            M = A.inv();
+        }
+        return M;
+    }
+
+    /** K from the hole's speed against the aligned background over the frames so far. */
+    void chooseRadius() {
+        std::vector<double> speed, radius;
+        for (size_t i = 1; i < window_.size(); ++i) {
+            const CFrame& a = window_[i - 1];
+            const CFrame& b = window_[i];
+            if (a.area == 0 || b.area == 0 || b.index != a.index + 1) continue;
+            std::vector<Point2f> pb = {Point2f((float)b.centroid.x, (float)b.centroid.y)}, pa;
+            perspectiveTransform(pb, pa, b.toPrev);
+            speed.push_back(norm(Point2d(pa[0].x, pa[0].y) - a.centroid));
+            radius.push_back(b.radius);
+        }
+        int K = p_.max_radius;
+        if (!speed.empty()) {
+            std::nth_element(speed.begin(), speed.begin() + speed.size() / 2, speed.end());
+            std::nth_element(radius.begin(), radius.begin() + radius.size() / 2, radius.end());
+            const double v = speed[speed.size() / 2], d = 2 * radius[radius.size() / 2];
+            if (v > 1e-3) K = (int)std::ceil(p_.motion_factor * d / v);
+        }
+        K_ = std::max(p_.min_radius, std::min(p_.max_radius, K));
+    }
+
+    Mat process(int t, FrameStats& st, Mat& shadowOut) {
+        CFrame& ft = *frame(t);
+        st.index = t;
+        st.radius = K_;
+        st.hole = ft.area;
+        shadowOut = Mat::zeros(size_, CV_8U);
+        Mat out = ft.image.clone();
+        if (ft.area == 0) return out;
+        const bool removeShadow = p_.shadows == SHADOWS_REMOVE;
+        const int reach = (int)std::ceil(std::max(1.0, p_.shadow_reach * ft.radius));
+        const Rect hb = boundingRect(ft.hole);
+        const int grow = (removeShadow ? reach : p_.hole_margin + kRingWidth) + 2;
+        const Rect roi = Rect(hb.x - grow, hb.y - grow, hb.width + 2 * grow, hb.height + 2 * grow) &
+                         Rect(Point(), size_);
+        const Mat It = ft.image(roi), holeT = ft.hole(roi), distT = ft.dist(roi),
+                  zoneT = ft.zone(roi);
+        Mat ring;
+        {
+            Mat a, b;
+            compare(distT, p_.hole_margin + 1, a, CMP_GE);
+            compare(distT, p_.hole_margin + 1 + kRingWidth, b, CMP_LE);
+            bitwise_and(a, b, ring);
+        }
+        Mat grayT;
+        if (p_.alignment == CONSENSUS_ALIGN_FLOW) cvtColor(It, grayT, COLOR_BGR2GRAY);
+
+        // 1. Candidates: every neighbour in the window, aligned to frame t's ROI.
+        std::vector<Candidate> cands;
+        const Matx33d shift(1, 0, roi.x, 0, 1, roi.y, 0, 0, 1);
+        for (int s = std::max(0, t - K_); s <= std::min(pushed_ - 1, t + K_); ++s) {
+            if (s == t) continue;
+            CFrame* fs = frame(s);
+            if (!fs) continue;
+            Candidate c;
+            Mat M = mapTo(t, s);
+            const bool ident = p_.alignment == CONSENSUS_ALIGN_NONE ||
+                               nearIdentity(M, size_, p_.identity_tolerance);
+            if (ident) {
+                c.bgr = fs->image(roi);
+                c.usable = fs->usable(roi);
+                c.zone = fs->zone(roi);
+            } else {
+                const Mat Mroi = M * Mat(shift);
+                warpPerspective(fs->image, c.bgr, Mroi, roi.size(), INTER_LINEAR | WARP_INVERSE_MAP,
+                                BORDER_CONSTANT);
+                Mat u;
+                warpPerspective(fs->usable, u, Mroi, roi.size(), INTER_NEAREST | WARP_INVERSE_MAP,
+                                BORDER_CONSTANT, Scalar(0));
+                erode(u, c.usable, Mat());  // bilinear taps reach one pixel further
+                warpPerspective(fs->zone, c.zone, Mroi, roi.size(),
+                                INTER_NEAREST | WARP_INVERSE_MAP, BORDER_CONSTANT, Scalar(0));
+            }
+            Mat rv;
+            bitwise_and(ring, c.usable, rv);
+            double e = ringError(It, c.bgr, rv);
+            bool byFlow = false;
+            if (p_.alignment == CONSENSUS_ALIGN_FLOW && e > 1.0) {
+                Candidate f;
+                if (flowAlign(grayT, holeT, c, f)) {
+                    Mat fv;
+                    bitwise_and(ring, f.usable, fv);
+                    const double ef = ringError(It, f.bgr, fv);
+                    if (ef >= 0 && (e < 0 || ef < 0.8 * e)) {
+                        e = ef;
+                        c = f;
+                        byFlow = true;
+                    }
+                }
+            }
+            if (e < 0 || e > p_.max_ring_error) continue;
+            ++st.neighbours;
+            if (byFlow) ++st.flow_aligned;
+            c.weight = (float)(std::exp(-(e / p_.ring_sigma) * (e / p_.ring_sigma)) /
+                               (1.0 + std::abs(s - t) / p_.temporal_sigma));
+            cvtColor(c.bgr, c.lab, COLOR_BGR2Lab);
+            cands.push_back(std::move(c));
+        }
+
+        // 2. The vote, for the hole and (to find the frame's shadow) the zone around it.
+        Mat need;
+        if (removeShadow)
+            bitwise_or(holeT, zoneT, need);
+        else
+            need = holeT;
+        Mat B(roi.size(), CV_32FC3, Scalar::all(0));
+        Mat Bok = Mat::zeros(roi.size(), CV_8U);
+        std::vector<int> excludedRows(roi.height, 0);
+        const float tau = (float)p_.shadow_threshold, zw = (float)p_.zone_weight;
+        const float inl = (float)p_.inlier_distance;
+        parallel_for_(Range(0, roi.height), [&](const Range& rows) {
+            const int n = (int)cands.size();
+            std::vector<int> idx(n);
+            std::vector<float> w(n), Y(n);
+            std::vector<std::pair<float, float>> yw;
+            std::vector<int> pool;
+            for (int y = rows.start; y < rows.end; ++y) {
+                const uchar* nd = need.ptr<uchar>(y);
+                for (int x = 0; x < roi.width; ++x) {
+                    if (!nd[x]) continue;
+                    int m = 0;
+                    for (int i = 0; i < n; ++i)
+                        if (cands[i].usable.at<uchar>(y, x)) {
+                            idx[m] = i;
+                            Y[m] = lumaOf(cands[i].bgr.at<Vec3b>(y, x));
+                            w[m] = cands[i].weight;
+                            ++m;
+                        }
+                    if (m == 0) continue;
+                    // Unshadowed reference: the weighted median luminance of the candidates
+                    // outside their zones or, if all are inside, the weighted upper quartile
+                    // of all (a shadow only darkens).
+                    yw.clear();
+                    for (int k = 0; k < m; ++k)
+                        if (!cands[idx[k]].zone.at<uchar>(y, x)) yw.emplace_back(Y[k], w[k]);
+                    float q = 0.5f;
+                    if (yw.empty()) {
+                        q = 0.75f;
+                        for (int k = 0; k < m; ++k)
+                            yw.emplace_back(Y[k], w[k]);
+                    }
+                    std::sort(yw.begin(), yw.end());
+                    float tot = 0;
+                    for (auto& e : yw)
+                        tot += e.second;
+                    float acc = 0, ref = yw.back().first;
+                    for (auto& e : yw) {
+                        acc += e.second;
+                        if (acc >= q * tot) {
+                            ref = e.first;
+                            break;
+                        }
+                    }
+                    // Leave out shadowed candidates; down-weight the rest of the zones.
+                    int kept = 0;
+                    for (int k = 0; k < m; ++k) {
+                        const bool inZone = cands[idx[k]].zone.at<uchar>(y, x) != 0;
+                        if (inZone && Y[k] < (1 - tau) * ref) {
+                            ++excludedRows[y];
+                            continue;
+                        }
+                        idx[kept] = idx[k];
+                        w[kept] = w[k] * (inZone ? zw : 1.f);
+                        ++kept;
+                    }
+                    if (kept == 0) continue;
+                    // Weighted medoid in Lab, then the weighted mean of its inliers. The
+                    // medoid is sought among the kMedoidPool heaviest candidates (cost
+                    // against all), which bounds the work at kMedoidPool · n distances.
+                    int best = 0;
+                    float bestCost = FLT_MAX;
+                    if (kept > kMedoidPool) {
+                        std::vector<int> order(kept);
+                        for (int k = 0; k < kept; ++k)
+                            order[k] = k;
+                        std::partial_sort(order.begin(), order.begin() + kMedoidPool, order.end(),
+                                          [&](int a, int b) { return w[a] > w[b]; });
+                        pool.assign(order.begin(), order.begin() + kMedoidPool);
+                    } else {
+                        pool.resize(kept);
+                        for (int k = 0; k < kept; ++k)
+                            pool[k] = k;
+                    }
+                    for (int a : pool) {
+                        const Vec3b la = cands[idx[a]].lab.at<Vec3b>(y, x);
+                        float cost = 0;
+                        for (int b = 0; b < kept && cost < bestCost; ++b) {
+                            const Vec3b lb = cands[idx[b]].lab.at<Vec3b>(y, x);
+                            cost +=
+                                w[b] * (float)(std::abs(la[0] - lb[0]) + std::abs(la[1] - lb[1]) +
+                                               std::abs(la[2] - lb[2]));
+                        }
+                        if (cost < bestCost) {
+                            bestCost = cost;
+                            best = a;
+                        }
+                    }
+                    const Vec3b lm = cands[idx[best]].lab.at<Vec3b>(y, x);
+                    Vec3f sum(0, 0, 0);
+                    float sw = 0;
+                    for (int b = 0; b < kept; ++b) {
+                        const Vec3b lb = cands[idx[b]].lab.at<Vec3b>(y, x);
+                        const float d = (float)(std::abs(lm[0] - lb[0]) + std::abs(lm[1] - lb[1]) +
+                                                std::abs(lm[2] - lb[2]));
+                        if (d > inl) continue;
+                        const Vec3b c = cands[idx[b]].bgr.at<Vec3b>(y, x);
+                        sum += w[b] * Vec3f(c[0], c[1], c[2]);
+                        sw += w[b];
+                    }
+                    B.at<Vec3f>(y, x) = sum / sw;
+                    Bok.at<uchar>(y, x) = 255;
+                }
+            }
+        });
+        for (int v : excludedRows)
+            st.excluded += v;
+
+        // 3. The hole: the consensus where there is one.
+        Mat outR = out(roi);
+        Mat rest = Mat::zeros(size_, CV_8U);
+        for (int y = 0; y < roi.height; ++y) {
+            const uchar* h = holeT.ptr<uchar>(y);
+            const uchar* ok = Bok.ptr<uchar>(y);
+            const Vec3f* b = B.ptr<Vec3f>(y);
+            Vec3b* o = outR.ptr<Vec3b>(y);
+            uchar* r = rest.ptr<uchar>(y + roi.y) + roi.x;
+            for (int x = 0; x < roi.width; ++x) {
+                if (!h[x]) continue;
+                if (ok[x]) {
+                    o[x] = Vec3b(saturate_cast<uchar>(b[x][0]), saturate_cast<uchar>(b[x][1]),
+                                 saturate_cast<uchar>(b[x][2]));
+                    ++st.temporal;
+                } else {
+                    r[x] = 255;
+                }
+            }
+        }
+
+        // 4. The frame's own shadow: consistent attenuation against the consensus, re-lit.
+        if (removeShadow)
+            removeOwnShadow(It, holeT, zoneT, B, Bok, ft.area, outR, shadowOut(roi), st);
+
+        // 5. What no frame sees: the previous output, then exemplars.
+        int nrest = countNonZero(rest);
+        if (nrest > 0 && p_.reuse_previous && prevIndex_ == t - 1 && !prev_.empty()) {
+            Mat M = mapTo(t, t - 1), wprev, wok;
+            Mat all(size_, CV_8U, Scalar(255));
+            if (nearIdentity(M, size_, p_.identity_tolerance)) {
+                wprev = prev_;
+                wok = all;
+            } else {
+                warpPerspective(prev_, wprev, M, size_, INTER_LINEAR | WARP_INVERSE_MAP);
+                warpPerspective(all, wok, M, size_, INTER_NEAREST | WARP_INVERSE_MAP,
+                                BORDER_CONSTANT, Scalar(0));
+                erode(wok, wok, Mat());
+            }
+            Mat take;
+            bitwise_and(rest, wok, take);
+            wprev.copyTo(out, take);
+            st.previous = countNonZero(take);
+            rest.setTo(0, take);
+            nrest -= st.previous;
+        }
+        if (nrest > 0) {
+            const Rect b = boundingRect(rest);
+            const int m = std::max(48, std::max(b.width, b.height));
+            const Rect crop =
+                Rect(b.x - m, b.y - m, b.width + 2 * m, b.height + 2 * m) & Rect(Point(), size_);
+            Mat filled;
+            exemplar_->inpaint(out(crop), rest(crop), filled);
+            filled.copyTo(out(crop), rest(crop));
+            st.exemplar = nrest;
+        }
+        return out;
+    }
+
+    /** Aligns a homography-warped candidate further by dense DIS flow around the hole. */
+    bool flowAlign(const Mat& grayT, const Mat& holeT, const Candidate& in, Candidate& out) {
+        if (grayT.cols < 16 || grayT.rows < 16) return false;
+        if (!dis_) {
+            dis_ = DISOpticalFlow::create(DISOpticalFlow::PRESET_FAST);
+        }
+        Mat g;
+        cvtColor(in.bgr, g, COLOR_BGR2GRAY);
+        Mat flow;
+        dis_->calc(grayT, g, flow);
+        // Valid: seen in both (outside frame t's hole and the neighbour's), not its zone
+        // either, where the object's shadow moves with it.
+        Mat valid, nh;
+        bitwise_not(holeT, nh);
+        erode(nh, nh, Mat(), Point(-1, -1), 2);
+        bitwise_and(nh, in.usable, valid);
+        double r = std::sqrt(std::max(1, countNonZero(holeT)) / CV_PI);
+        completeFlow(flow, valid, std::max(4.0, r));
+        Mat mapx(flow.size(), CV_32F), mapy(flow.size(), CV_32F);
+        for (int y = 0; y < flow.rows; ++y) {
+            const Vec2f* f = flow.ptr<Vec2f>(y);
+            float* mx = mapx.ptr<float>(y);
+            float* my = mapy.ptr<float>(y);
+            for (int x = 0; x < flow.cols; ++x) {
+                mx[x] = x + f[x][0];
+                my[x] = y + f[x][1];
+            }
+        }
+        remap(in.bgr, out.bgr, mapx, mapy, INTER_LINEAR, BORDER_CONSTANT);
+        Mat u;
+        remap(in.usable, u, mapx, mapy, INTER_NEAREST, BORDER_CONSTANT, Scalar(0));
+        erode(u, out.usable, Mat());
+        remap(in.zone, out.zone, mapx, mapy, INTER_NEAREST, BORDER_CONSTANT, Scalar(0));
+        return true;
+    }
+
+    void removeOwnShadow(const Mat& It, const Mat& holeT, const Mat& zoneT, const Mat& B,
+                         const Mat& Bok, int holeArea, Mat& outR, Mat shadowR, FrameStats& st) {
+        const float tau = (float)p_.shadow_threshold;
+        Mat m = Mat::zeros(It.size(), CV_8U);
+        for (int y = 0; y < It.rows; ++y) {
+            const uchar* h = holeT.ptr<uchar>(y);
+            const uchar* z = zoneT.ptr<uchar>(y);
+            const uchar* ok = Bok.ptr<uchar>(y);
+            const Vec3b* i = It.ptr<Vec3b>(y);
+            const Vec3f* b = B.ptr<Vec3f>(y);
+            uchar* mm = m.ptr<uchar>(y);
+            for (int x = 0; x < It.cols; ++x) {
+                if (h[x] || !z[x] || !ok[x]) continue;
+                const float yb = 0.114f * b[x][0] + 0.587f * b[x][1] + 0.299f * b[x][2];
+                if (yb > 1 && lumaOf(i[x]) < (1 - tau) * yb) mm[x] = 255;
+            }
+        }
+        morphologyEx(m, m, MORPH_OPEN, getStructuringElement(MORPH_ELLIPSE, Size(3, 3)));
+        morphologyEx(m, m, MORPH_CLOSE, getStructuringElement(MORPH_ELLIPSE, Size(5, 5)));
+        Mat labels, stats, cent;
+        const int n = connectedComponentsWithStats(m, labels, stats, cent, 8, CV_32S);
+        const int minArea = (int)std::ceil(p_.shadow_min_area * holeArea);
+        Mat keep = Mat::zeros(m.size(), CV_8U);
+        for (int k = 1; k < n; ++k)
+            if (stats.at<int>(k, CC_STAT_AREA) >= minArea) keep.setTo(255, labels == k);
+        keep.setTo(0, holeT);
+        st.shadow = countNonZero(keep);
+        if (st.shadow == 0) return;
+        keep.copyTo(shadowR);
+        const int rim = 2 * (int)std::ceil(p_.shadow_smooth) + 1;
+        Mat D;
+        dilate(keep, D, getStructuringElement(MORPH_ELLIPSE, Size(2 * rim + 1, 2 * rim + 1)));
+        if (!p_.shadow_relight) {
+            // Consensus fill of the shadow and a rim around it, feathered into the frame.
+            Mat alpha;
+            D.convertTo(alpha, CV_32F, 1.0 / 255);
+            GaussianBlur(alpha, alpha, Size(0, 0), 0.5 * p_.shadow_smooth);
+            for (int y = 0; y < It.rows; ++y) {
+                const uchar* ok = Bok.ptr<uchar>(y);
+                const uchar* h = holeT.ptr<uchar>(y);
+                const float* al = alpha.ptr<float>(y);
+                const Vec3b* i = It.ptr<Vec3b>(y);
+                const Vec3f* b = B.ptr<Vec3f>(y);
+                Vec3b* o = outR.ptr<Vec3b>(y);
+                for (int x = 0; x < It.cols; ++x) {
+                    if (h[x] || !ok[x] || al[x] <= 0) continue;
+                    for (int c = 0; c < 3; ++c)
+                        o[x][c] = saturate_cast<uchar>((1 - al[x]) * i[x][c] + al[x] * b[x][c]);
+                }
+            }
+            return;
+        }
+        // Re-lighting: the attenuation frame / consensus on the shadow and a rim around it
+        // (1 elsewhere), smoothed by normalised convolution over the known pixels (the hole,
+        // whose pixels are the object's, must not pull it towards 1); dividing it out keeps
+        // the frame's texture.
+        Mat A(It.size(), CV_32FC3, Scalar::all(1)), W(It.size(), CV_32F, Scalar(1));
+        for (int y = 0; y < It.rows; ++y) {
+            const uchar* d = D.ptr<uchar>(y);
+            const uchar* ok = Bok.ptr<uchar>(y);
+            const uchar* h = holeT.ptr<uchar>(y);
+            const Vec3b* i = It.ptr<Vec3b>(y);
+            const Vec3f* b = B.ptr<Vec3f>(y);
+            Vec3f* a = A.ptr<Vec3f>(y);
+            float* w = W.ptr<float>(y);
+            for (int x = 0; x < It.cols; ++x) {
+                if (h[x]) {
+                    a[x] = Vec3f(0, 0, 0);
+                    w[x] = 0;
+                    continue;
+                }
+                if (!d[x] || !ok[x]) continue;
+                for (int c = 0; c < 3; ++c)
+                    a[x][c] = std::min(1.f, std::max(0.05f, (i[x][c] + 0.5f) / (b[x][c] + 0.5f)));
+            }
+        }
+        GaussianBlur(A, A, Size(0, 0), p_.shadow_smooth);
+        GaussianBlur(W, W, Size(0, 0), p_.shadow_smooth);
+        for (int y = 0; y < It.rows; ++y) {
+            const uchar* r = D.ptr<uchar>(y);
+            const uchar* h = holeT.ptr<uchar>(y);
+            const Vec3b* i = It.ptr<Vec3b>(y);
+            const Vec3f* a = A.ptr<Vec3f>(y);
+            const float* w = W.ptr<float>(y);
+            Vec3b* o = outR.ptr<Vec3b>(y);
+            for (int x = 0; x < It.cols; ++x) {
+                if (!r[x] || h[x] || w[x] <= 1e-3f) continue;
+                for (int c = 0; c < 3; ++c)
+                    o[x][c] = saturate_cast<uchar>(i[x][c] * w[x] / std::max(1e-3f, a[x][c]));
+            }
+        }
+    }
+
+    Params p_;
+    Ptr<ExemplarInpainter> exemplar_;
+    Ptr<ORB> orb_;
+    Ptr<DISOpticalFlow> dis_;
+    std::deque<CFrame> window_;
+    Size size_;
+    int pushed_ = 0, next_ = 0, K_ = -1;
+    bool finished_ = false;
+    Mat prev_;
+    int prevIndex_ = -1;
+};
+
+}  // namespace
+
+Ptr<ConsensusInpainter> ConsensusInpainter::create(const Params& p) {
+    if (p.temporal_radius < 0 || p.min_radius < 1 || p.max_radius < p.min_radius ||
+        p.motion_factor <= 0 || p.alignment < CONSENSUS_ALIGN_NONE ||
+        p.alignment > CONSENSUS_ALIGN_FLOW || p.features < 0 || p.local_reach <= 0 ||
+        p.identity_tolerance < 0 || p.max_ring_error < 0 || p.ring_sigma <= 0 ||
+        p.temporal_sigma <= 0 || p.hole_margin < 0 || p.shadow_reach <= 0 ||
+        p.shadow_threshold <= 0 || p.shadow_threshold >= 1 || p.zone_weight <= 0 ||
+        p.zone_weight > 1 || p.inlier_distance <= 0 ||
+        (p.shadows != SHADOWS_KEEP && p.shadows != SHADOWS_REMOVE) || p.shadow_min_area < 0 ||
+        p.shadow_smooth <= 0)
+        CV_Error(
+            Error::StsBadArg,
+            "ConsensusInpainter parameters out of range: expected temporal_radius >= 0, "
+            "1 <= min_radius <= max_radius, motion_factor > 0, alignment 0..2, features >= "
+            "0, local_reach > 0, identity_tolerance >= 0, max_ring_error >= 0, ring_sigma > 0, "
+            "temporal_sigma > 0, hole_margin >= 0, shadow_reach > 0, shadow_threshold in "
+            "(0, 1), zone_weight in (0, 1], inlier_distance > 0, shadows keep/remove, "
+            "shadow_min_area >= 0, shadow_smooth > 0");
+    return makePtr<ConsensusImpl>(p);
+}
+
+}  // namespace vbme
+}  // namespace cv
