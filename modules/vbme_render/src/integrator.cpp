@@ -63,6 +63,8 @@ void Renderer::Params::read(const FileNode& fn) {
     if (!fn["aovs"].empty()) aovs = (int)fn["aovs"] != 0;
     if (!fn["light_selection"].empty())
         light_selection = parseLightSelection((std::string)fn["light_selection"]);
+    if (!fn["adaptive_min_spp"].empty()) adaptive_min_spp = (int)fn["adaptive_min_spp"];
+    if (!fn["adaptive_error"].empty()) adaptive_error = (float)fn["adaptive_error"];
 }
 
 void Renderer::Params::write(FileStorage& fs) const {
@@ -74,6 +76,7 @@ void Renderer::Params::write(FileStorage& fs) const {
     fs << "clamp" << clamp << "rr_depth" << rr_depth << "tile_size" << tile_size << "aovs"
        << (int)aovs;
     fs << "light_selection" << (light_selection == LIGHTS_POWER ? "power" : "uniform");
+    fs << "adaptive_min_spp" << adaptive_min_spp << "adaptive_error" << adaptive_error;
 }
 
 namespace {
@@ -164,6 +167,10 @@ public:
         if (p.spp <= 0) CV_Error(Error::StsBadArg, "Renderer: spp must be positive");
         if (p.max_depth <= 0) CV_Error(Error::StsBadArg, "Renderer: max_depth must be positive");
         if (p.tile_size <= 0) CV_Error(Error::StsBadArg, "Renderer: tile_size must be positive");
+        if (p.adaptive_min_spp < 0)
+            CV_Error(Error::StsBadArg, "Renderer: adaptive_min_spp must be ≥ 0 (0: off)");
+        if (!(p.adaptive_error > 0.f))
+            CV_Error(Error::StsBadArg, "Renderer: adaptive_error must be positive");
         if (p.light_selection != LIGHTS_UNIFORM && p.light_selection != LIGHTS_POWER)
             CV_Error(Error::StsBadArg,
                      "Renderer: light_selection must be LIGHTS_UNIFORM or LIGHTS_POWER");
@@ -398,51 +405,104 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
         without->object.release();
         without->mask.release();
     }
-    std::atomic<int64> rays{0};
+    std::atomic<int64> rays{0}, paths{0}, untouched{0};
     const uint32_t spp = (uint32_t)p_.spp;
-    const double inv_spp = 1.0 / spp;
+    const bool adaptive = differential && p_.adaptive_min_spp > 0;
+    const uint32_t n_min = adaptive ? std::min(spp, (uint32_t)p_.adaptive_min_spp) : spp;
+    if (adaptive)
+        out.samples.create(sz, CV_32FC1);
+    else
+        out.samples.release();
+    // Half-width of the 95 % interval of a pixel's composite, in 8-bit display values: the
+    // standard error of the mean of Y mapped through the camera's response at the level.
+    const Response response = camera.response;
+    auto pixelError = [response](const double* ys, const double* yq, const double* lev,
+                                 uint32_t m) {
+        double err = 0;
+        for (int k = 0; k < 3; ++k) {
+            const double mean = ys[k] / m;
+            const double var = std::max(0.0, (yq[k] - ys[k] * mean) / (m - 1));
+            const double h = 1.96 * std::sqrt(var / m);
+            const double level = std::max(0.0, lev[k] / m);
+            const double hi = encode(float(level + h), response);
+            const double lo = encode(float(std::max(0.0, level - h)), response);
+            err = std::max(err, 0.5 * (hi - lo) * 255.0);
+        }
+        return err;
+    };
 
     auto renderTile = [&](int tile) {
         const int x0 = (tile % tiles_x) * ts, y0 = (tile / tiles_x) * ts;
         const int x1 = std::min(x0 + ts, sz.width), y1 = std::min(y0 + ts, sz.height);
-        int64 tile_rays = 0;
+        int64 tile_rays = 0, tile_paths = 0, tile_untouched = 0;
         for (int y = y0; y < y1; ++y) {
             for (int x = x0; x < x1; ++x) {
                 const uint64 px = sampler.pixelKey(Point(x, y));
                 double c[3] = {0, 0, 0}, a[3] = {0, 0, 0}, n[3] = {0, 0, 0}, obj = 0, msk = 0;
                 double cn[3] = {0, 0, 0};  // without the objects (differential)
-                for (uint32_t s = 0; s < spp; ++s) {
-                    const Vec2f off =
-                        filterOffset(p_.filter, sampler.get2D(px, s, PathDims::kFilm));
-                    Vec3f o, d;
-                    cam.generateRay(Point2f(x + off[0], y + off[1]), o, d);
-                    PathInfo info;
-                    PathState fork;
-                    Vec3f L = trace(scene, lights, sampler, PathState::start(o, d), with_objects,
-                                    track_objects, px, s, info, differential ? &fork : nullptr);
-                    Vec3f Ln = L;
-                    if (info.forked) {
-                        PathInfo info_n;
-                        Ln = trace(scene, lights, sampler, fork, false, false, px, s, info_n,
-                                   nullptr);
-                        tile_rays += info_n.rays;
+                // Adaptive sampling: the composite's per-sample value Y (L where the camera
+                // ray sees an object, L − Ln elsewhere) and its display level.
+                double ys[3] = {0, 0, 0}, yq[3] = {0, 0, 0}, lev[3] = {0, 0, 0};
+                uint32_t taken = 0;
+                auto takeSamples = [&](uint32_t upto) {
+                    for (; taken < upto; ++taken) {
+                        const uint32_t s = taken;
+                        const Vec2f off =
+                            filterOffset(p_.filter, sampler.get2D(px, s, PathDims::kFilm));
+                        Vec3f o, d;
+                        cam.generateRay(Point2f(x + off[0], y + off[1]), o, d);
+                        PathInfo info;
+                        PathState fork;
+                        Vec3f L =
+                            trace(scene, lights, sampler, PathState::start(o, d), with_objects,
+                                  track_objects, px, s, info, differential ? &fork : nullptr);
+                        Vec3f Ln = L;
+                        if (info.forked) {
+                            PathInfo info_n;
+                            Ln = trace(scene, lights, sampler, fork, false, false, px, s, info_n,
+                                       nullptr);
+                            tile_rays += info_n.rays;
+                        }
+                        if (p_.clamp > 0.f) {
+                            const float mc = maxComp(L);
+                            if (mc > p_.clamp) L *= p_.clamp / mc;
+                            const float mn = maxComp(Ln);
+                            if (mn > p_.clamp) Ln *= p_.clamp / mn;
+                        }
+                        for (int k = 0; k < 3; ++k) {
+                            cn[k] += Ln[k];
+                            c[k] += L[k];
+                            a[k] += info.albedo[k];
+                            n[k] += info.normal[k];
+                        }
+                        if (adaptive) {
+                            for (int k = 0; k < 3; ++k) {
+                                const double yv = info.sees_object ? L[k] : double(L[k]) - Ln[k];
+                                ys[k] += yv;
+                                yq[k] += yv * yv;
+                                lev[k] += info.sees_object ? L[k] : Ln[k];
+                            }
+                        }
+                        obj += info.touched_object ? 1.0 : 0.0;
+                        msk += info.sees_object ? 1.0 : 0.0;
+                        tile_rays += info.rays;
                     }
-                    if (p_.clamp > 0.f) {
-                        const float mc = maxComp(L);
-                        if (mc > p_.clamp) L *= p_.clamp / mc;
-                        const float mn = maxComp(Ln);
-                        if (mn > p_.clamp) Ln *= p_.clamp / mn;
+                };
+                takeSamples(n_min);
+                if (adaptive) {
+                    while (taken < spp) {
+                        if (obj == 0) {  // no path met an object: diff is exactly 0
+                            ++tile_untouched;
+                            break;
+                        }
+                        if (taken >= 2 && pixelError(ys, yq, lev, taken) <= p_.adaptive_error)
+                            break;
+                        takeSamples(std::min(spp, taken + n_min));
                     }
-                    for (int k = 0; k < 3; ++k) {
-                        cn[k] += Ln[k];
-                        c[k] += L[k];
-                        a[k] += info.albedo[k];
-                        n[k] += info.normal[k];
-                    }
-                    obj += info.touched_object ? 1.0 : 0.0;
-                    msk += info.sees_object ? 1.0 : 0.0;
-                    tile_rays += info.rays;
+                    out.samples.at<float>(y, x) = float(taken);
                 }
+                tile_paths += taken;
+                const double inv_spp = 1.0 / taken;
                 out.color.at<Vec3f>(y, x) =
                     Vec3f(float(c[2] * inv_spp), float(c[1] * inv_spp), float(c[0] * inv_spp));
                 if (differential)
@@ -462,6 +522,8 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
             if (progress) progress->tick(x1 - x0);
         }
         rays += tile_rays;
+        paths += tile_paths;
+        untouched += tile_untouched;
     };
 
     const int n_tiles = tiles_x * tiles_y;
@@ -484,7 +546,8 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
 
     RenderStats st;
     st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    st.paths = int64(sz.area()) * spp;
+    st.paths = paths.load();
+    st.pixels_untouched = untouched.load();
     st.rays = rays.load();
     return st;
 }

@@ -26,6 +26,7 @@ struct CV_EXPORTS RenderImages {
                  //!< mesh (a path vertex on it, or a shadow ray it blocked)
     Mat mask;    //!< CV_32FC1, fraction of the pixel's camera rays whose first hit is an
                  //!< `objects:` mesh (the compositing mask M of differential rendering)
+    Mat samples;  //!< CV_32FC1, samples taken per pixel (adaptive sampling only, else empty)
 };
 
 /** @brief Reconstruction filter of the film.

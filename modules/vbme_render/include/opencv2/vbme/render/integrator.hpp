@@ -21,6 +21,9 @@ struct CV_EXPORTS RenderStats {
     double seconds = 0;  //!< wall-clock time of the render
     int64 paths = 0;     //!< camera paths traced (pixels × spp)
     int64 rays = 0;      //!< rays traced (closest-hit and shadow)
+    /** @brief Pixels that stopped at the minimum of adaptive sampling because no path met an
+    object (0 without adaptive sampling). */
+    int64 pixels_untouched = 0;
 };
 
 /** @brief The path tracer: renders a RenderScene through a camera.
@@ -74,6 +77,20 @@ public:
         int tile_size = 16;              //!< tile edge in pixels (parallel work unit)
         bool aovs = true;                //!< also produce albedo, normal and object images
         int light_selection = LIGHTS_UNIFORM;  //!< LightSelection
+        /** @brief Adaptive sampling of differential renders (renderDifferential() only; 0:
+        off, every pixel gets `spp`). When > 0, every pixel first takes this many samples;
+        a pixel none of whose paths met an object (its difference is exactly 0) stops there;
+        the others take batches of this many more samples until the estimated error of the
+        composite (see `adaptive_error`) is below the target or `spp` (then the maximum) is
+        reached. The schedule depends only on the pixel's own samples: bitwise identical
+        for any number of threads. */
+        int adaptive_min_spp = 0;
+        /** @brief Target of adaptive sampling: the half-width of the 95 % confidence interval
+        of a pixel's composite value, in display code values of 8 bits (0 … 255) through
+        the camera's response. The composite's per-sample value is the render with the
+        objects where the camera ray meets an object, and the difference (with − without)
+        elsewhere; its standard error is mapped to display values at the render's level. */
+        float adaptive_error = 0.5f;
 
         /** @brief spp, max_depth and seed from a scene's render settings. */
         static Params fromScene(const RenderSettings& s);
