@@ -38,6 +38,7 @@ struct BenchOptions {
     int min_spp = 4;             // insert: adaptive sampling's minimum (its variant)
     int adaptive_max_spp = 128;  // insert: adaptive sampling's maximum (its variant)
     double error = 0.5;          // insert: adaptive sampling's target (8-bit display values)
+    double texture_cone = 0.1;   // insert: texture filtering variants: cone spread (radians)
     std::string cache;  // insert: where the reference is cached (default: ./vbme-bench-cache)
 };
 
@@ -478,20 +479,25 @@ void benchInsert(const BenchOptions& o) {
         double best = 1e30, cpu = 1e30, rmse = -1, spp = 0, untouched = 0;
     };
     std::vector<Variant> vs;
-    {
-        Variant u{"uniform", base};
-        u.p.spp = o.spp;
-        vs.push_back(u);
-        Variant a{"adaptive", base};
-        a.p.spp = o.adaptive_max_spp;
-        a.p.adaptive_min_spp = o.min_spp;
-        a.p.adaptive_error = (float)o.error;
-        a.name =
-            format("adaptive (min %d, max %d, error %.2g)", o.min_spp, o.adaptive_max_spp, o.error);
-        vs.push_back(a);
-        u.name = format("uniform %d spp", o.spp);
-        vs[0].name = u.name;
-    }
+    for (int adaptive = 0; adaptive < 2; ++adaptive)
+        for (int filtered = 0; filtered < 2; ++filtered) {
+            Variant v{"", base};
+            if (adaptive) {
+                v.p.spp = o.adaptive_max_spp;
+                v.p.adaptive_min_spp = o.min_spp;
+                v.p.adaptive_error = (float)o.error;
+                v.name = format("adaptive %d..%d spp, error %.2g", o.min_spp, o.adaptive_max_spp,
+                                o.error);
+            } else {
+                v.p.spp = o.spp;
+                v.name = format("uniform %d spp", o.spp);
+            }
+            if (filtered) {
+                v.p.texture_cone = (float)o.texture_cone;
+                v.name += format(", texture cone %.2g", o.texture_cone);
+            }
+            vs.push_back(v);
+        }
     for (int round = 0; round < o.repeat; ++round)
         for (auto& v : vs) {
             DifferentialRenderer::Params dp;
@@ -575,6 +581,10 @@ void setupBench(CLI::App& app) {
     app.add_option("--error", o->error,
                    "insert: target of the adaptive variant (95 % half-width, 8-bit display)")
         ->check(CLI::Range(1e-3, 255.0))
+        ->capture_default_str();
+    app.add_option("--texture-cone", o->texture_cone,
+                   "insert: spread (radians) of the texture-filtering variants' ray cone")
+        ->check(CLI::Range(1e-4, 3.2))
         ->capture_default_str();
     app.add_option("--cache", o->cache,
                    "insert: folder of the cached reference (default ./vbme-bench-cache)");

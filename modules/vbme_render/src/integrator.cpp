@@ -65,6 +65,8 @@ void Renderer::Params::read(const FileNode& fn) {
         light_selection = parseLightSelection((std::string)fn["light_selection"]);
     if (!fn["adaptive_min_spp"].empty()) adaptive_min_spp = (int)fn["adaptive_min_spp"];
     if (!fn["adaptive_error"].empty()) adaptive_error = (float)fn["adaptive_error"];
+    if (!fn["texture_cone"].empty()) texture_cone = (float)fn["texture_cone"];
+    if (!fn["adaptive_roulette"].empty()) adaptive_roulette = (float)fn["adaptive_roulette"];
 }
 
 void Renderer::Params::write(FileStorage& fs) const {
@@ -77,6 +79,7 @@ void Renderer::Params::write(FileStorage& fs) const {
        << (int)aovs;
     fs << "light_selection" << (light_selection == LIGHTS_POWER ? "power" : "uniform");
     fs << "adaptive_min_spp" << adaptive_min_spp << "adaptive_error" << adaptive_error;
+    fs << "texture_cone" << texture_cone << "adaptive_roulette" << adaptive_roulette;
 }
 
 namespace {
@@ -151,10 +154,15 @@ struct PathState {
     bool prev_delta = true;  // the camera ray counts as specular: no MIS on what it sees
     Vec3f prev_p, o, d;      // previous vertex; the ray about to be traced
     int depth = 0;           // index of the vertex the ray is looking for
-    static PathState start(const Vec3f& o, const Vec3f& d) {
+    // Ray cone @cite Amanatides1984: width at o and spread angle (radians); `filtered`: a
+    // non-specular bounce happened, so texture lookups are filtered over the cone.
+    float cone_width = 0.f, cone_spread = 0.f;
+    bool filtered = false;
+    static PathState start(const Vec3f& o, const Vec3f& d, float pixel_spread = 0.f) {
         PathState s;
         s.prev_p = s.o = o;
         s.d = d;
+        s.cone_spread = pixel_spread;
         return s;
     }
 };
@@ -169,6 +177,10 @@ public:
         if (p.tile_size <= 0) CV_Error(Error::StsBadArg, "Renderer: tile_size must be positive");
         if (p.adaptive_min_spp < 0)
             CV_Error(Error::StsBadArg, "Renderer: adaptive_min_spp must be ≥ 0 (0: off)");
+        if (!(p.texture_cone >= 0.f))
+            CV_Error(Error::StsBadArg, "Renderer: texture_cone must be ≥ 0 (0: off)");
+        if (!(p.adaptive_roulette >= 0.f && p.adaptive_roulette <= 1.f))
+            CV_Error(Error::StsBadArg, "Renderer: adaptive_roulette must be in [0, 1]");
         if (!(p.adaptive_error > 0.f))
             CV_Error(Error::StsBadArg, "Renderer: adaptive_error must be positive");
         if (p.light_selection != LIGHTS_UNIFORM && p.light_selection != LIGHTS_POWER)
@@ -252,7 +264,12 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
             if (depth == 0) info.sees_object = true;
         }
         const MaterialRec& m = scene.material(hit.geom_id, hit.prim_id);
-        const Vec3f diffuse = m.diffuseAt(hit.uv);
+        const float cone_width = s.cone_width + s.cone_spread * hit.t;
+        const Vec3f diffuse =
+            s.filtered && m.texture
+                ? m.diffuseFiltered(hit.uv,
+                                    cone_width * scene.uvPerLength(hit.geom_id, hit.prim_id))
+                : m.diffuseAt(hit.uv);
         if (depth == 0) {
             info.albedo = diffuse;
             info.normal = hit.ns;
@@ -340,6 +357,11 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
         prev_pdf = bs.pdf;
         prev_delta = bs.delta;
         prev_p = hit.p;
+        s.cone_width = cone_width;
+        if (!bs.delta && p_.texture_cone > 0.f) {
+            s.cone_spread = std::max(s.cone_spread, p_.texture_cone);
+            s.filtered = true;
+        }
         const float side = wi.dot(hit.ng) > 0.f ? 1.f : -1.f;
         o = hit.p + hit.ng * (side * eps);
         d = wi;
@@ -416,6 +438,8 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
     // Half-width of the 95 % interval of a pixel's composite, in 8-bit display values: the
     // standard error of the mean of Y mapped through the camera's response at the level.
     const Response response = camera.response;
+    // Spread angle of a camera ray's cone: one pixel at the image centre.
+    const float pixel_spread = float(1.0 / std::max(camera.K(0, 0), camera.K(1, 1)));
     auto pixelError = [response](const double* ys, const double* yq, const double* lev,
                                  uint32_t m) {
         double err = 0;
@@ -443,6 +467,7 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                 // Adaptive sampling: the composite's per-sample value Y (L where the camera
                 // ray sees an object, L − Ln elsewhere) and its display level.
                 double ys[3] = {0, 0, 0}, yq[3] = {0, 0, 0}, lev[3] = {0, 0, 0};
+                double dp[3] = {0, 0, 0}, dl[3] = {0, 0, 0};  // Σ(L − Ln): minimum, later
                 uint32_t taken = 0;
                 auto takeSamples = [&](uint32_t upto) {
                     for (; taken < upto; ++taken) {
@@ -453,9 +478,9 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                         cam.generateRay(Point2f(x + off[0], y + off[1]), o, d);
                         PathInfo info;
                         PathState fork;
-                        Vec3f L =
-                            trace(scene, lights, sampler, PathState::start(o, d), with_objects,
-                                  track_objects, px, s, info, differential ? &fork : nullptr);
+                        Vec3f L = trace(scene, lights, sampler,
+                                        PathState::start(o, d, pixel_spread), with_objects,
+                                        track_objects, px, s, info, differential ? &fork : nullptr);
                         Vec3f Ln = L;
                         if (info.forked) {
                             PathInfo info_n;
@@ -476,6 +501,9 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                             n[k] += info.normal[k];
                         }
                         if (adaptive) {
+                            double* dsum = taken < n_min ? dp : dl;
+                            for (int k = 0; k < 3; ++k)
+                                dsum[k] += double(L[k]) - Ln[k];
                             for (int k = 0; k < 3; ++k) {
                                 const double yv = info.sees_object ? L[k] : double(L[k]) - Ln[k];
                                 ys[k] += yv;
@@ -489,25 +517,59 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                     }
                 };
                 takeSamples(n_min);
-                if (adaptive) {
-                    while (taken < spp) {
-                        if (obj == 0) {  // no path met an object: diff is exactly 0
-                            ++tile_untouched;
-                            break;
-                        }
-                        if (taken >= 2 && pixelError(ys, yq, lev, taken) <= p_.adaptive_error)
-                            break;
-                        takeSamples(std::min(spp, taken + n_min));
+                double later_weight = 1.0;  // 1 / probability of taking the later samples
+                if (adaptive && taken < spp) {
+                    bool go = true;
+                    if (obj == 0) {  // no path met an object: diff is exactly 0 so far
+                        const float u = float((px * 0x9E3779B97F4A7C15ull) >> 40) * 0x1p-24f;
+                        if (u < p_.adaptive_roulette)
+                            later_weight = 1.0 / p_.adaptive_roulette;
+                        else
+                            go = false;
                     }
-                    out.samples.at<float>(y, x) = float(taken);
+                    if (go) {
+                        // How many more: from the minimum's error alone (so that the later
+                        // samples are independent of the decision), at least one batch.
+                        double more = n_min;
+                        if (obj > 0 && taken >= 2) {
+                            const double e = pixelError(ys, yq, lev, taken) / p_.adaptive_error;
+                            more = std::max(more, std::ceil(n_min * e * e) - n_min);
+                        }
+                        takeSamples((uint32_t)std::min<double>(spp, n_min + more));
+                    } else {
+                        ++tile_untouched;
+                    }
                 }
+                if (adaptive) out.samples.at<float>(y, x) = float(taken);
                 tile_paths += taken;
                 const double inv_spp = 1.0 / taken;
-                out.color.at<Vec3f>(y, x) =
-                    Vec3f(float(c[2] * inv_spp), float(c[1] * inv_spp), float(c[0] * inv_spp));
-                if (differential)
-                    without->color.at<Vec3f>(y, x) = Vec3f(
-                        float(cn[2] * inv_spp), float(cn[1] * inv_spp), float(cn[0] * inv_spp));
+                double dest[3];  // the difference's estimate (adaptive)
+                if (adaptive && taken > n_min) {
+                    // Fixed weights of the minimum and the later samples: the later ones are
+                    // independent of the decision to take them, so with the roulette's weight
+                    // the estimate is unbiased (up to the error-driven stopping).
+                    const double alpha = double(n_min) / spp, m = taken - n_min;
+                    for (int k = 0; k < 3; ++k)
+                        dest[k] = alpha * dp[k] / n_min + (1 - alpha) * later_weight * dl[k] / m;
+                } else {
+                    for (int k = 0; k < 3; ++k)
+                        dest[k] = dp[k] / n_min;
+                }
+                if (adaptive) {
+                    Vec3f wo, wn;
+                    for (int k = 0; k < 3; ++k) {
+                        wn[2 - k] = float(cn[k] * inv_spp);
+                        wo[2 - k] = wn[2 - k] + float(dest[k]);
+                    }
+                    out.color.at<Vec3f>(y, x) = wo;
+                    without->color.at<Vec3f>(y, x) = wn;
+                } else {
+                    out.color.at<Vec3f>(y, x) =
+                        Vec3f(float(c[2] * inv_spp), float(c[1] * inv_spp), float(c[0] * inv_spp));
+                    if (differential)
+                        without->color.at<Vec3f>(y, x) = Vec3f(
+                            float(cn[2] * inv_spp), float(cn[1] * inv_spp), float(cn[0] * inv_spp));
+                }
                 if (p_.aovs) {
                     out.albedo.at<Vec3f>(y, x) =
                         Vec3f(float(a[2] * inv_spp), float(a[1] * inv_spp), float(a[0] * inv_spp));

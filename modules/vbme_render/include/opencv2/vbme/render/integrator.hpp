@@ -78,12 +78,18 @@ public:
         bool aovs = true;                //!< also produce albedo, normal and object images
         int light_selection = LIGHTS_UNIFORM;  //!< LightSelection
         /** @brief Adaptive sampling of differential renders (renderDifferential() only; 0:
-        off, every pixel gets `spp`). When > 0, every pixel first takes this many samples;
-        a pixel none of whose paths met an object (its difference is exactly 0) stops there;
-        the others take batches of this many more samples until the estimated error of the
-        composite (see `adaptive_error`) is below the target or `spp` (then the maximum) is
-        reached. The schedule depends only on the pixel's own samples: bitwise identical
-        for any number of threads. */
+        off, every pixel gets `spp`). When > 0, every pixel first takes this many samples
+        (the minimum); a pixel none of whose paths met an object (its difference is exactly 0)
+        stops there, except with probability `adaptive_roulette`; the others take batches of
+        this many more samples until the estimated error of the composite (see
+        `adaptive_error`) is below the target or `spp` (then the maximum) is reached. The
+        without-objects image is the mean of all samples taken; the difference is
+        α·(mean of the minimum) + (1 − α)·w·(mean of the later samples), α = minimum / spp,
+        w = 1 / `adaptive_roulette` for a pixel that went on by the roulette, else 1: the later
+        samples are independent of the decision to take them, so the estimate is unbiased
+        up to the error-driven stopping. The with-objects image is the without-objects one
+        plus the difference. The schedule depends only on the pixel's own samples: bitwise
+        identical for any number of threads. */
         int adaptive_min_spp = 0;
         /** @brief Target of adaptive sampling: the half-width of the 95 % confidence interval
         of a pixel's composite value, in display code values of 8 bits (0 … 255) through
@@ -91,6 +97,18 @@ public:
         objects where the camera ray meets an object, and the difference (with − without)
         elsewhere; its standard error is mapped to display values at the render's level. */
         float adaptive_error = 0.5f;
+        /** @brief Texture filtering after non-specular bounces (0: off, every lookup is
+        bilinear in the full image). When > 0, each path carries a ray cone
+        @cite Amanatides1984 that starts one pixel wide at the camera; at the first
+        non-specular (diffuse or glossy) bounce its spread angle becomes at least this many
+        radians, and diffuse textures hit after that are looked up with
+        Texture::evalFiltered() over the cone's width there. Camera-ray hits are unchanged. */
+        float texture_cone = 0.f;
+        /** @brief Probability that a pixel whose minimum samples met no object still goes on
+        (adaptive sampling; its later differences then weigh 1 / this). 0: such pixels always
+        stop with a difference of exactly 0, which misses rare indirect effects of the
+        objects (shadowed light that reaches the pixel over a bounce) and biases them. */
+        float adaptive_roulette = 0.25f;
 
         /** @brief spp, max_depth and seed from a scene's render settings. */
         static Params fromScene(const RenderSettings& s);
