@@ -39,6 +39,7 @@ struct BenchOptions {
     int adaptive_max_spp = 128;  // insert: adaptive sampling's maximum (its variant)
     double error = 0.5;          // insert: adaptive sampling's target (8-bit display values)
     double texture_cone = 0.1;   // insert: texture filtering variants: cone spread (radians)
+    double roulette = 0.25;      // insert: adaptive variant: untouched pixels going on
     std::string cache;  // insert: where the reference is cached (default: ./vbme-bench-cache)
 };
 
@@ -486,8 +487,9 @@ void benchInsert(const BenchOptions& o) {
                 v.p.spp = o.adaptive_max_spp;
                 v.p.adaptive_min_spp = o.min_spp;
                 v.p.adaptive_error = (float)o.error;
-                v.name = format("adaptive %d..%d spp, error %.2g", o.min_spp, o.adaptive_max_spp,
-                                o.error);
+                v.p.adaptive_roulette = (float)o.roulette;
+                v.name = format("adaptive %d..%d spp, error %.2g, roulette %.2g", o.min_spp,
+                                o.adaptive_max_spp, o.error, o.roulette);
             } else {
                 v.p.spp = o.spp;
                 v.name = format("uniform %d spp", o.spp);
@@ -585,6 +587,10 @@ void setupBench(CLI::App& app) {
     app.add_option("--texture-cone", o->texture_cone,
                    "insert: spread (radians) of the texture-filtering variants' ray cone")
         ->check(CLI::Range(1e-4, 3.2))
+        ->capture_default_str();
+    app.add_option("--roulette", o->roulette,
+                   "insert: adaptive variant's probability that an untouched pixel goes on")
+        ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
     app.add_option("--cache", o->cache,
                    "insert: folder of the cached reference (default ./vbme-bench-cache)");
