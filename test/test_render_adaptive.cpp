@@ -66,6 +66,7 @@ TEST(RenderAdaptive, DeterministicScheduleAndExactZeros) {
     p.tile_size = 8;
     p.adaptive_min_spp = 4;
     p.adaptive_error = 1.0f;
+    p.adaptive_radius = 0;  // untouched pixels go on only by the roulette
     RenderImages w1, n1, w2, n2;
     p.threads = 1;
     const RenderStats st1 = Renderer::create(p)->renderDifferential(*rs, s.camera, w1, n1);
@@ -115,7 +116,8 @@ namespace {
 
 /** Two-sample t statistic of the image-mean difference, adaptive (8 … 64 spp) against uniform
 16 spp, over K independent seeds each. */
-double adaptiveBiasT(const RenderScene& rs, const Scene& s, float roulette, double* rel) {
+double adaptiveBiasT(const RenderScene& rs, const Scene& s, float roulette, int radius,
+                     double* rel) {
     const int K = 6;
     std::vector<double> ma, mu;
     double spp_adaptive = 0;
@@ -127,6 +129,7 @@ double adaptiveBiasT(const RenderScene& rs, const Scene& s, float roulette, doub
         p.adaptive_min_spp = 8;
         p.adaptive_error = 0.5f;
         p.adaptive_roulette = roulette;
+        p.adaptive_radius = radius;
         RenderImages w, n;
         const RenderStats st = Renderer::create(p)->renderDifferential(rs, s.camera, w, n);
         spp_adaptive += double(st.paths) / (24 * 18) / K;
@@ -151,9 +154,9 @@ double adaptiveBiasT(const RenderScene& rs, const Scene& s, float roulette, doub
     EXPECT_LT(m2, 0.0);  // the cube's shadow darkens the floor on average
     const double t = (m1 - m2) / std::sqrt(v1 / K + v2 / K + 1e-30);
     std::printf(
-        "roulette %.2f: mean diff adaptive %.6f (%.1f spp), uniform 16 spp %.6f, t = "
-        "%.2f\n",
-        roulette, m1, spp_adaptive, m2, t);
+        "roulette %.2f, radius %d: mean diff adaptive %.6f (%.1f spp), uniform 16 spp %.6f, "
+        "t = %.2f\n",
+        roulette, radius, m1, spp_adaptive, m2, t);
     *rel = std::abs(m1 - m2) / std::abs(m2);
     return t;
 }
@@ -162,18 +165,21 @@ double adaptiveBiasT(const RenderScene& rs, const Scene& s, float roulette, doub
 
 // The adaptive estimate of the difference layer agrees with uniform sampling within noise:
 // the image-mean difference over independent seeds, compared by a two-sample t statistic.
-// Without the roulette (untouched pixels always stop at the minimum) the same test sees the
-// bias of the missed rare paths.
+// Without the roulette and the neighbourhood (untouched pixels always stop at the minimum) the
+// same test sees the bias of the missed rare paths.
 TEST(RenderAdaptive, UnbiasedAgainstUniformWithinNoise) {
     ScratchDir dir;
     vbme_test::writeCubeObj(dir / "cube.obj");
     const Scene s = cubeRoom(dir / "cube.obj", Size(24, 18));
     Ptr<RenderScene> rs = RenderScene::create(s);
     double rel;
-    const double t = adaptiveBiasT(*rs, s, Renderer::Params().adaptive_roulette, &rel);
+    const Renderer::Params def;
+    const double t = adaptiveBiasT(*rs, s, def.adaptive_roulette, def.adaptive_radius, &rel);
     EXPECT_LT(std::abs(t), 4.0);
     EXPECT_LT(rel, 0.06);
-    const double t0 = adaptiveBiasT(*rs, s, 0.f, &rel);
+    const double t1 = adaptiveBiasT(*rs, s, def.adaptive_roulette, 0, &rel);  // roulette only
+    EXPECT_LT(std::abs(t1), 4.0);
+    const double t0 = adaptiveBiasT(*rs, s, 0.f, 0, &rel);
     EXPECT_GT(std::abs(t0), 4.0);
 }
 

@@ -67,6 +67,7 @@ void Renderer::Params::read(const FileNode& fn) {
     if (!fn["adaptive_error"].empty()) adaptive_error = (float)fn["adaptive_error"];
     if (!fn["texture_cone"].empty()) texture_cone = (float)fn["texture_cone"];
     if (!fn["adaptive_roulette"].empty()) adaptive_roulette = (float)fn["adaptive_roulette"];
+    if (!fn["adaptive_radius"].empty()) adaptive_radius = (int)fn["adaptive_radius"];
 }
 
 void Renderer::Params::write(FileStorage& fs) const {
@@ -79,7 +80,8 @@ void Renderer::Params::write(FileStorage& fs) const {
        << (int)aovs;
     fs << "light_selection" << (light_selection == LIGHTS_POWER ? "power" : "uniform");
     fs << "adaptive_min_spp" << adaptive_min_spp << "adaptive_error" << adaptive_error;
-    fs << "texture_cone" << texture_cone << "adaptive_roulette" << adaptive_roulette;
+    fs << "texture_cone" << texture_cone << "adaptive_roulette" << adaptive_roulette
+       << "adaptive_radius" << adaptive_radius;
 }
 
 namespace {
@@ -179,6 +181,8 @@ public:
             CV_Error(Error::StsBadArg, "Renderer: adaptive_min_spp must be ≥ 0 (0: off)");
         if (!(p.texture_cone >= 0.f))
             CV_Error(Error::StsBadArg, "Renderer: texture_cone must be ≥ 0 (0: off)");
+        if (p.adaptive_radius < 0)
+            CV_Error(Error::StsBadArg, "Renderer: adaptive_radius must be ≥ 0");
         if (!(p.adaptive_roulette >= 0.f && p.adaptive_roulette <= 1.f))
             CV_Error(Error::StsBadArg, "Renderer: adaptive_roulette must be in [0, 1]");
         if (!(p.adaptive_error > 0.f))
@@ -455,6 +459,16 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
         return err;
     };
 
+    // Adaptive sampling runs in two phases: every pixel's minimum (kept in `pilot`), then,
+    // once the whole image's minimum is known, the rest; an untouched pixel goes on when a
+    // pixel within adaptive_radius was touched (a function of the minimum samples only, so
+    // still the same for any number of threads).
+    struct Pilot {
+        double c[3], a[3], n[3], cn[3], ys[3], yq[3], lev[3], dp[3], obj, msk;
+    };
+    std::vector<Pilot> pilot(adaptive ? size_t(sz.area()) : 0);
+    std::vector<uint8_t> near_touched(adaptive ? size_t(sz.area()) : 0, 0);
+    int phase = adaptive ? 0 : 1;
     auto renderTile = [&](int tile) {
         const int x0 = (tile % tiles_x) * ts, y0 = (tile / tiles_x) * ts;
         const int x1 = std::min(x0 + ts, sz.width), y1 = std::min(y0 + ts, sz.height);
@@ -516,11 +530,33 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                         tile_rays += info.rays;
                     }
                 };
-                takeSamples(n_min);
+                const size_t pi = size_t(y) * sz.width + x;
+                if (adaptive && phase == 1) {  // resume from the stored minimum
+                    const Pilot& q = pilot[pi];
+                    for (int k = 0; k < 3; ++k) {
+                        c[k] = q.c[k], a[k] = q.a[k], n[k] = q.n[k], cn[k] = q.cn[k];
+                        ys[k] = q.ys[k], yq[k] = q.yq[k], lev[k] = q.lev[k], dp[k] = q.dp[k];
+                    }
+                    obj = q.obj;
+                    msk = q.msk;
+                    taken = n_min;
+                } else {
+                    takeSamples(n_min);
+                }
+                if (phase == 0) {
+                    Pilot& q = pilot[pi];
+                    for (int k = 0; k < 3; ++k) {
+                        q.c[k] = c[k], q.a[k] = a[k], q.n[k] = n[k], q.cn[k] = cn[k];
+                        q.ys[k] = ys[k], q.yq[k] = yq[k], q.lev[k] = lev[k], q.dp[k] = dp[k];
+                    }
+                    q.obj = obj;
+                    q.msk = msk;
+                    continue;
+                }
                 double later_weight = 1.0;  // 1 / probability of taking the later samples
                 if (adaptive && taken < spp) {
                     bool go = true;
-                    if (obj == 0) {  // no path met an object: diff is exactly 0 so far
+                    if (obj == 0 && !near_touched[pi]) {  // no path here or near met one
                         const float u = float((px * 0x9E3779B97F4A7C15ull) >> 40) * 0x1p-24f;
                         if (u < p_.adaptive_roulette)
                             later_weight = 1.0 / p_.adaptive_roulette;
@@ -581,7 +617,7 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                     out.mask.at<float>(y, x) = float(msk * inv_spp);
                 }
             }
-            if (progress) progress->tick(x1 - x0);
+            if (progress && phase == 1) progress->tick(x1 - x0);
         }
         rays += tile_rays;
         paths += tile_paths;
@@ -589,12 +625,27 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
     };
 
     const int n_tiles = tiles_x * tiles_y;
-    auto body = [&] {
+    auto pass = [&] {
         tbb::parallel_for(tbb::blocked_range<int>(0, n_tiles, 1),
                           [&](const tbb::blocked_range<int>& r) {
                               for (int t = r.begin(); t != r.end(); ++t)
                                   renderTile(t);
                           });
+    };
+    auto body = [&] {
+        pass();
+        if (phase == 1) return;
+        // Which pixels have a touched pixel within the radius (square window).
+        const int R = std::max(0, p_.adaptive_radius);
+        for (int y = 0; y < sz.height; ++y)
+            for (int x = 0; x < sz.width; ++x) {
+                if (pilot[size_t(y) * sz.width + x].obj == 0) continue;
+                for (int v = std::max(0, y - R); v <= std::min(sz.height - 1, y + R); ++v)
+                    for (int u = std::max(0, x - R); u <= std::min(sz.width - 1, x + R); ++u)
+                        near_touched[size_t(v) * sz.width + u] = 1;
+            }
+        phase = 1;
+        pass();
     };
     if (p_.threads > 0) {
         // Allow more workers than cores when asked (TBB's default cap is the core count).

@@ -80,7 +80,8 @@ public:
         /** @brief Adaptive sampling of differential renders (renderDifferential() only; 0:
         off, every pixel gets `spp`). When > 0, every pixel first takes this many samples
         (the minimum); a pixel none of whose paths met an object (its difference is exactly 0)
-        stops there, except with probability `adaptive_roulette`; the others take batches of
+        stops there, unless a pixel within `adaptive_radius` had one that did, or with
+        probability `adaptive_roulette`; the others take batches of
         this many more samples until the estimated error of the composite (see
         `adaptive_error`) is below the target or `spp` (then the maximum) is reached. The
         without-objects image is the mean of all samples taken; the difference is
@@ -109,6 +110,12 @@ public:
         stop with a difference of exactly 0, which misses rare indirect effects of the
         objects (shadowed light that reaches the pixel over a bounce) and biases them. */
         float adaptive_roulette = 0.25f;
+        /** @brief Adaptive sampling: a pixel whose minimum met no object still goes on (with
+        weight 1) when a pixel within this many pixels (square window) had a path that met
+        one, so that soft shadows and penumbrae, where only some paths meet the object, are
+        not cut off. The decision uses the whole image's minimum samples (a first pass before
+        the rest): still independent of the thread count. */
+        int adaptive_radius = 2;
 
         /** @brief spp, max_depth and seed from a scene's render settings. */
         static Params fromScene(const RenderSettings& s);
