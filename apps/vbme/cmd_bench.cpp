@@ -8,7 +8,11 @@
 #include <fstream>
 #include <sstream>
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/vbme/track.hpp>
 #if __has_include(<opencv2/vbme/render.hpp>)
 #include <opencv2/vbme/render.hpp>
@@ -28,7 +32,23 @@ namespace {
 struct BenchOptions {
     std::string what = "track";
     int width = 640, height = 480, frames = 300, threads = 1, spp = 32;
+    int ref_spp = 4096;          // insert: samples of the cached reference (0: no reference)
+    int repeat = 3;              // render-peer, insert: interleaved rounds (the fastest counts)
+    int max_depth = 4;           // render-peer: path length of both renderers
+    int min_spp = 4;             // insert: adaptive sampling's minimum (its variant)
+    int adaptive_max_spp = 128;  // insert: adaptive sampling's maximum (its variant)
+    double error = 0.5;          // insert: adaptive sampling's target (8-bit display values)
+    double texture_cone = 0.1;   // insert: texture filtering variants: cone spread (radians)
+    double roulette = 0.25;      // insert: adaptive variant: untouched pixels going on
+    std::string cache;  // insert: where the reference is cached (default: ./vbme-bench-cache)
 };
+
+// CPU seconds of this process (self) and of its waited-for children.
+double cpuSeconds(int who) {
+    rusage u{};
+    getrusage(who, &u);
+    return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
 
 // Tracking throughput: frames made in memory first, so that only update() is timed.
 void benchTrack(const BenchOptions& o) {
@@ -145,6 +165,212 @@ void benchDifferential(const BenchOptions& o) {
 }
 #endif
 
+#ifdef VBME_BENCH_RENDER
+// ---- The peer scene: an open box room (floor, three walls) with a sphere and a box, diffuse,
+// lit by one point light (no ambient light: Embree's pathtracer counts it twice past the first
+// bounce). Written as OBJ + MTL for Embree's `pathtracer` and read by vbme from the same file.
+struct PeerScene {
+    std::string dir, obj;
+    cv::vbme::Scene scene;
+    cv::Ptr<cv::vbme::RenderScene> rs;
+    cv::Vec3d eye{1.1, -3.4, 1.6}, target{-0.1, 0.3, 0.5}, light{0.4, -0.6, 1.9};
+    double intensity = 8.0, fov_y = 45.0;
+
+    PeerScene() {
+        using namespace cv;
+        using namespace cv::vbme;
+        dir = (std::filesystem::temp_directory_path() /
+               ("vbme-bench-peer-" + std::to_string(::getpid())))
+                  .string();
+        std::filesystem::create_directories(dir);
+        obj = dir + "/scene.obj";
+        std::ofstream o(obj);
+        o << "mtllib scene.mtl\n";
+        int nv = 0;
+        auto quad = [&](const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
+            for (const Vec3d* v : {&a, &b, &c, &d})
+                o << "v " << (*v)[0] << " " << (*v)[1] << " " << (*v)[2] << "\n";
+            o << "f " << nv + 1 << " " << nv + 2 << " " << nv + 3 << " " << nv + 4 << "\n";
+            nv += 4;
+        };
+        o << "usemtl room\n";  // faces counter-clockwise seen from inside the room
+        quad({-1.5, -1.5, 0}, {1.5, -1.5, 0}, {1.5, 1.5, 0}, {-1.5, 1.5, 0});
+        quad({-1.5, 1.5, 0}, {1.5, 1.5, 0}, {1.5, 1.5, 2.5}, {-1.5, 1.5, 2.5});
+        quad({-1.5, -1.5, 0}, {-1.5, 1.5, 0}, {-1.5, 1.5, 2.5}, {-1.5, -1.5, 2.5});
+        quad({1.5, 1.5, 0}, {1.5, -1.5, 0}, {1.5, -1.5, 2.5}, {1.5, 1.5, 2.5});
+        o << "usemtl box\n";  // a 0.6 m box, faces counter-clockwise seen from outside
+        {
+            const double x0 = -0.9, x1 = -0.3, y0 = 0.2, y1 = 0.8, z1 = 0.6;
+            quad({x0, y0, z1}, {x1, y0, z1}, {x1, y1, z1}, {x0, y1, z1});
+            quad({x0, y0, 0}, {x1, y0, 0}, {x1, y0, z1}, {x0, y0, z1});
+            quad({x1, y1, 0}, {x0, y1, 0}, {x0, y1, z1}, {x1, y1, z1});
+            quad({x1, y0, 0}, {x1, y1, 0}, {x1, y1, z1}, {x1, y0, z1});
+            quad({x0, y1, 0}, {x0, y0, 0}, {x0, y0, z1}, {x0, y1, z1});
+        }
+        o << "usemtl ball\n";  // a UV sphere of radius 0.45 on the floor
+        {
+            const int nu = 48, nvv = 24;
+            const Vec3d c(0.5, 0.1, 0.45);
+            const double r = 0.45;
+            const int base = nv + 1;
+            for (int j = 0; j <= nvv; ++j)
+                for (int i = 0; i < nu; ++i) {
+                    const double th = CV_PI * j / nvv, ph = 2 * CV_PI * i / nu;
+                    o << "v " << c[0] + r * std::sin(th) * std::cos(ph) << " "
+                      << c[1] + r * std::sin(th) * std::sin(ph) << " " << c[2] + r * std::cos(th)
+                      << "\n";
+                    ++nv;
+                }
+            for (int j = 0; j < nvv; ++j)
+                for (int i = 0; i < nu; ++i) {
+                    const int a = base + j * nu + i, b = base + j * nu + (i + 1) % nu;
+                    const int c2 = a + nu, d = b + nu;
+                    o << "f " << a << " " << c2 << " " << d << "\n";
+                    o << "f " << a << " " << d << " " << b << "\n";
+                }
+        }
+        o.close();
+        std::ofstream(dir + "/scene.mtl") << "newmtl room\nKd 0.6 0.6 0.6\nKs 0 0 0\n\n"
+                                             "newmtl box\nKd 0.3 0.5 0.8\nKs 0 0 0\n\n"
+                                             "newmtl ball\nKd 0.8 0.5 0.3\nKs 0 0 0\n";
+        Light l;
+        l.type = Light::POINT;
+        l.position = light;
+        l.intensity = Vec3d::all(intensity);
+        scene.lights = {l};
+        SceneObject so;
+        so.mesh = obj;
+        scene.objects = {so};
+        rs = RenderScene::create(scene);
+    }
+    ~PeerScene() {
+        std::error_code ec;
+        std::filesystem::remove_all(dir, ec);
+    }
+    cv::vbme::Camera camera(cv::Size sz) const {
+        using namespace cv;
+        const double f = 0.5 * sz.height / std::tan(fov_y * CV_PI / 360.0);
+        vbme::Camera c = vbme::Camera::fromFocal(f, sz);
+        const Vec3d z = normalize(target - eye), x = normalize(z.cross(Vec3d(0, 0, 1))),
+                    y = z.cross(x);
+        c.R = Matx33d(x[0], x[1], x[2], y[0], y[1], y[2], z[0], z[1], z[2]);
+        c.t = -(c.R * eye);
+        c.response = vbme::Response::LINEAR;
+        return c;
+    }
+    static std::string exe() {
+        for (const char* p : {"/usr/bin/pathtracer", "/usr/bin/embree3_pathtracer"})
+            if (std::filesystem::exists(p)) return p;
+        return "";
+    }
+    // Runs Embree's pathtracer; wall seconds in *wall, children's CPU seconds returned in *cpu.
+    bool runPeer(cv::Size sz, int spp, int depth, int threads, const std::string& out, double* wall,
+                 double* cpu) const {
+        char cmd[1024];
+        std::snprintf(cmd, sizeof cmd,
+                      "%s -i %s --vp %g %g %g --vi %g %g %g --vu 0 0 1 --fov %g --size %d %d "
+                      "--pointlight %g %g %g %g %g %g --spp %d --max-path-length %d --threads %d "
+                      "-o %s > /dev/null 2>&1",
+                      exe().c_str(), obj.c_str(), eye[0], eye[1], eye[2], target[0], target[1],
+                      target[2], fov_y, sz.width, sz.height, light[0], light[1], light[2],
+                      intensity, intensity, intensity, spp, depth, threads, out.c_str());
+        const double c0 = cpuSeconds(RUSAGE_CHILDREN);
+        const auto t0 = std::chrono::steady_clock::now();
+        const int rc = std::system(cmd);
+        *wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        *cpu = cpuSeconds(RUSAGE_CHILDREN) - c0;
+        return rc == 0;
+    }
+};
+
+// vbme against Embree's own pathtracer on PeerScene: equal size, spp, path length, threads.
+// The peer has no timer of its own: it runs at N and 2N spp and the difference is timed, so
+// that loading and BVH building cancel. The images are compared by 16×16 block means in the
+// peer's units (8-bit linear, clamped).
+void benchRenderPeer(const BenchOptions& o) {
+    using namespace cv;
+    using namespace cv::vbme;
+    if (PeerScene::exe().empty())
+        CV_Error(Error::StsError, "Embree's pathtracer not found (apt install embree-tools)");
+    const PeerScene ps;
+    const Size sz(o.width, o.height);
+    const int threads = o.threads > 1 ? o.threads : 2;
+    Renderer::Params rp;
+    rp.spp = o.spp;
+    rp.max_depth = o.max_depth;
+    rp.threads = threads;
+    rp.aovs = false;
+    const Ptr<Renderer> r = Renderer::create(rp);
+    std::printf(
+        "render-peer %dx%d, %d spp, path length %d, %d threads, %d rounds "
+        "(point-lit room with a sphere and a box):\n",
+        sz.width, sz.height, o.spp, o.max_depth, threads, o.repeat);
+    std::vector<double> ratio_wall, ratio_cpu;
+    double best_v = 1e30, best_p = 1e30;
+    RenderImages img;
+    Mat peer;
+    for (int round = 0; round < o.repeat; ++round) {
+        const double c0 = cpuSeconds(RUSAGE_SELF);
+        const RenderStats st = r->render(*ps.rs, ps.camera(sz), img);
+        const double v_cpu = cpuSeconds(RUSAGE_SELF) - c0;
+        double w1, c1, w2, c2;
+        const std::string out = ps.dir + "/peer.ppm";
+        if (!ps.runPeer(sz, o.spp, o.max_depth, threads, ps.dir + "/peer_n.ppm", &w1, &c1) ||
+            !ps.runPeer(sz, 2 * o.spp, o.max_depth, threads, out, &w2, &c2))
+            CV_Error(Error::StsError, "Embree's pathtracer failed");
+        peer = imread(out, IMREAD_COLOR);
+        const double paths = double(sz.area()) * o.spp;
+        const double pw = paths / std::max(w2 - w1, 1e-6), pc = paths / std::max(c2 - c1, 1e-6);
+        const double vw = paths / st.seconds, vc = paths / std::max(v_cpu, 1e-6);
+        ratio_wall.push_back(vw / pw);
+        ratio_cpu.push_back(vc / pc);
+        best_v = std::min(best_v, st.seconds);
+        best_p = std::min(best_p, w2 - w1);
+        std::printf(
+            "  round %d: vbme %.3f s (%.0f paths/s wall, %.0f paths/s CPU), pathtracer "
+            "%.3f s (%.0f paths/s wall, %.0f paths/s CPU): %.2fx wall, %.2fx CPU\n",
+            round + 1, st.seconds, vw, vc, w2 - w1, pw, pc, vw / pw, vc / pc);
+    }
+    auto median = [](std::vector<double> v) {
+        std::sort(v.begin(), v.end());
+        return v[v.size() / 2];
+    };
+    // Image agreement (the 2N-spp peer image against vbme's N-spp one, block means).
+    Mat mine;
+    img.color.convertTo(mine, CV_8UC3, 255.0);
+    const int B = 16;
+    double se = 0, sum_v = 0, sum_p = 0, worst = 0;
+    int blocks = 0;
+    for (int y = 0; y + B <= sz.height; y += B)
+        for (int x = 0; x + B <= sz.width; x += B) {
+            const Rect rc(x, y, B, B);
+            const double mv = mean(mine(rc).reshape(1))[0], mp = mean(peer(rc).reshape(1))[0];
+            se += (mv - mp) * (mv - mp);
+            worst = std::max(worst, std::abs(mv - mp));
+            sum_v += mv;
+            sum_p += mp;
+            ++blocks;
+        }
+    const double rmse = std::sqrt(se / std::max(blocks, 1));
+    const double mean_v = sum_v / std::max(blocks, 1), mean_p = sum_p / std::max(blocks, 1);
+    const bool agree = std::abs(mean_v - mean_p) <= 0.03 * mean_p + 0.5 && rmse <= 3.0;
+    std::printf(
+        "  images: mean %.2f (vbme) vs %.2f (pathtracer) 8-bit linear; %dx%d block means "
+        "differ by %.2f RMS, %.2f at most: %s\n",
+        mean_v, mean_p, B, B, rmse, worst, agree ? "agree" : "DISAGREE");
+    std::printf(
+        "  vbme/pathtracer paths/s: %.2fx (wall, median of %d), %.2fx (CPU), %.2fx "
+        "(fastest vs fastest)\n",
+        median(ratio_wall), o.repeat, median(ratio_cpu), best_p / best_v);
+    const std::string png =
+        (std::filesystem::temp_directory_path() / "vbme_bench_peer.png").string();
+    Mat both;
+    hconcat(peer, mine, both);
+    imwrite(png, both);
+    std::printf("  side by side (pathtracer | vbme): %s\n", png.c_str());
+}
+#endif
+
 #ifdef VBME_BENCH_PIPELINE
 // The insertion pipeline on a rendered hand-held room sequence with its true cameras (so COLMAP
 // is not timed): every stage of runInsertion, and seconds per frame against one plain render
@@ -175,37 +401,199 @@ void benchInsert(const BenchOptions& o) {
     ip.quiet = true;
     const InsertionReport rep = runInsertion(ip);
 
-    const Scene scene = Scene::read(seq.trueScenePath());
-    Renderer::Params rp;
-    rp.spp = o.spp;
-    rp.max_depth = scene.render.max_depth;
-    RenderImages single;
-    const double t_single =
-        Renderer::create(rp)->render(*RenderScene::create(scene), seq.cameras()[0], single).seconds;
-    std::printf("insert %dx%d, %d spp, max depth %d, %d frames (%d threads):\n", o.width, o.height,
-                o.spp, rp.max_depth, rep.frames_rendered, getNumThreads());
+    std::printf("insert %dx%d, %d frames, vbme insert's defaults (%d spp), %d threads:\n", o.width,
+                o.height, rep.frames_rendered, rep.spp, getNumThreads());
     for (const auto& kv : rep.seconds)
         std::printf("  %-10s %8.2f s\n", kv.first.c_str(), kv.second);
-    std::printf(
-        "  per frame (differential render + composite) %.2f s = %.2fx one plain render "
-        "(%.2f s)\n",
-        rep.seconds_per_frame, rep.seconds_per_frame / t_single, t_single);
+    std::printf("  per frame (differential render + composite) %.2f s\n", rep.seconds_per_frame);
+
+    // Frame 0 again, from the prepared scene, with each sampling setting; the composite's
+    // error against a high-spp reference (another seed) in 8-bit display values.
+    const Scene scene = Scene::read((dir / "work" / "prepared_scene.yml").string());
+    Camera cam = seq.cameras()[0];
+    cam.response = scene.camera.response;
+    cam.image_size = scene.image_size;
+    Mat bg;
+    {
+        VideoReader reader(seq.inputVideoPath());
+        reader.read(bg);
+    }
+    const Ptr<RenderScene> rs = RenderScene::create(scene);
+    CompositeParams cp;
+    cp.response = cam.response;
+    auto display = [&](const DifferentialImages& im) {
+        Mat lin, enc;
+        compositeDifferential(bg, im.obj, im.diff, im.mask, lin, cp);
+        encode(lin, enc, cp.response, CV_32F);
+        min(max(enc, 0.0), 1.0, enc);
+        return Mat(enc * 255.0);
+    };
+    Renderer::Params base;
+    base.max_depth = scene.render.max_depth;
+    base.seed = scene.render.seed;
+    Mat ref;
+    if (o.ref_spp > 0) {
+        std::string text;
+        {
+            std::ifstream in(dir / "work" / "prepared_scene.yml");
+            std::stringstream ss;
+            ss << in.rdbuf();
+            text = ss.str();
+        }
+        const fs::path cache =
+            o.cache.empty() ? fs::current_path() / "vbme-bench-cache" : fs::path(o.cache);
+        fs::create_directories(cache);
+        const fs::path ref_file =
+            cache / format("insert-ref-%dx%d-%dspp-d%d-%016llx.yml.gz", o.width, o.height,
+                           o.ref_spp, base.max_depth,
+                           (unsigned long long)std::hash<std::string>()(text));
+        if (fs::exists(ref_file)) {
+            FileStorage f(ref_file.string(), FileStorage::READ);
+            f["display"] >> ref;
+        }
+        if (ref.empty() || ref.size() != bg.size()) {
+            std::printf("  reference: %d spp (another seed), rendered once into %s ...\n",
+                        o.ref_spp, ref_file.string().c_str());
+            std::fflush(stdout);
+            DifferentialRenderer::Params dp;
+            dp.render = base;
+            dp.render.spp = o.ref_spp;
+            dp.render.seed = base.seed + 0x5eed;
+            DifferentialImages im;
+            const RenderStats st = DifferentialRenderer::create(dp)->render(*rs, cam, im, nullptr);
+            ref = display(im);
+            const std::string tmp = ref_file.string() + ".tmp.yml.gz";
+            {
+                FileStorage f(tmp, FileStorage::WRITE);
+                f << "display" << ref;
+            }
+            fs::rename(tmp, ref_file);
+            std::printf("  reference took %.1f s\n", st.seconds);
+        } else {
+            std::printf("  reference: %d spp, cached in %s\n", o.ref_spp,
+                        ref_file.string().c_str());
+        }
+    }
+    struct Variant {
+        std::string name;
+        Renderer::Params p;
+        double best = 1e30, cpu = 1e30, rmse = -1, spp = 0, untouched = 0;
+    };
+    std::vector<Variant> vs;
+    for (int adaptive = 0; adaptive < 2; ++adaptive)
+        for (int filtered = 0; filtered < 2; ++filtered) {
+            Variant v{"", base};
+            if (adaptive) {
+                v.p.spp = o.adaptive_max_spp;
+                v.p.adaptive_min_spp = o.min_spp;
+                v.p.adaptive_error = (float)o.error;
+                v.p.adaptive_roulette = (float)o.roulette;
+                v.name = format("adaptive %d..%d spp, error %.2g, roulette %.2g", o.min_spp,
+                                o.adaptive_max_spp, o.error, o.roulette);
+            } else {
+                v.p.spp = o.spp;
+                v.name = format("uniform %d spp", o.spp);
+            }
+            if (filtered) {
+                v.p.texture_cone = (float)o.texture_cone;
+                v.name += format(", texture cone %.2g", o.texture_cone);
+            }
+            vs.push_back(v);
+        }
+    for (int round = 0; round < o.repeat; ++round)
+        for (auto& v : vs) {
+            DifferentialRenderer::Params dp;
+            dp.render = v.p;
+            DifferentialImages im;
+            const double c0 = cpuSeconds(RUSAGE_SELF);
+            const auto t0 = std::chrono::steady_clock::now();
+            const RenderStats st = DifferentialRenderer::create(dp)->render(*rs, cam, im);
+            const Mat disp = display(im);
+            const double wall =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            v.cpu = std::min(v.cpu, cpuSeconds(RUSAGE_SELF) - c0);
+            v.best = std::min(v.best, wall);
+            v.spp = double(st.paths) / bg.total();
+            v.untouched = double(st.pixels_untouched) / bg.total();
+            if (!ref.empty()) {
+                Mat d = disp - ref;
+                v.rmse = std::sqrt(mean(Mat(d.mul(d)).reshape(1))[0]);
+            }
+        }
+    std::printf("  frame 0, fastest of %d rounds (wall; CPU seconds of this process beside):\n",
+                o.repeat);
+    for (const auto& v : vs) {
+        std::printf(
+            "  %-38s %7.2f s/frame (%6.2f s CPU, %.2fx uniform)  %6.1f spp mean, %4.1f %% "
+            "pixels untouched",
+            v.name.c_str(), v.best, v.cpu, v.best / vs[0].best, v.spp, 100 * v.untouched);
+        if (v.rmse >= 0) std::printf("  RMSE %.3f (8-bit display)", v.rmse);
+        std::printf("\n");
+    }
+#ifdef VBME_BENCH_RENDER
+    if (!PeerScene::exe().empty()) {
+        const PeerScene ps;
+        double wall, cpu;
+        if (ps.runPeer(Size(o.width, o.height), o.spp, base.max_depth, 0, ps.dir + "/yardstick.ppm",
+                       &wall, &cpu))
+            std::printf(
+                "  yardstick: one Embree pathtracer frame of the render-peer scene, "
+                "%dx%d, %d spp, path length %d: %.2f s (%.2f s CPU, with loading)\n",
+                o.width, o.height, o.spp, base.max_depth, wall, cpu);
+    }
+#endif
     std::printf("thesis (2013, LuxRender, 603x804, 32 spp): ~15-20 min per frame\n");
 }
 #endif
 
 void setupBench(CLI::App& app) {
     auto o = std::make_shared<BenchOptions>();
-    app.add_option("what", o->what,
-                   "What to measure: track (tracking throughput), differential (one-pass "
-                   "differential rendering vs one and two renders; reads "
-                   "$VBME_DATA/meshes/stanford-bunny.obj) or insert (vbme insert's stages and "
-                   "seconds per frame on a rendered 3-frame room sequence, vs one plain render)")
-        ->check(CLI::IsMember({"track", "differential", "insert"}))
+    app.add_option(
+           "what", o->what,
+           "What to measure: track (tracking throughput), differential (one-pass "
+           "differential rendering vs one and two renders; reads "
+           "$VBME_DATA/meshes/stanford-bunny.obj) or insert (vbme insert's stages and "
+           "seconds per frame on a rendered 3-frame room sequence, then frame 0 with uniform and "
+           "adaptive sampling and the composite's RMSE against a cached high-spp "
+           "reference) or render-peer (vbme against Embree's pathtracer on one OBJ "
+           "scene: paths/s ratio and image agreement)")
+        ->check(CLI::IsMember({"track", "differential", "insert", "render-peer"}))
         ->capture_default_str();
     app.add_option("--spp", o->spp, "Samples per pixel (differential, insert)")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
+    app.add_option("--ref-spp", o->ref_spp,
+                   "insert: samples per pixel of the reference (0: no reference, no RMSE)")
+        ->check(CLI::Range(0, 1000000))
+        ->capture_default_str();
+    app.add_option("--repeat", o->repeat,
+                   "insert, render-peer: interleaved rounds (the fastest / median counts)")
+        ->check(CLI::Range(1, 100))
+        ->capture_default_str();
+    app.add_option("--max-depth", o->max_depth, "render-peer: path length of both renderers")
+        ->check(CLI::Range(1, 64))
+        ->capture_default_str();
+    app.add_option("--min-spp", o->min_spp, "insert: minimum samples of the adaptive variant")
+        ->check(CLI::Range(1, 100000))
+        ->capture_default_str();
+    app.add_option("--max-spp", o->adaptive_max_spp,
+                   "insert: maximum samples of the adaptive variant")
+        ->check(CLI::Range(1, 100000))
+        ->capture_default_str();
+    app.add_option("--error", o->error,
+                   "insert: target of the adaptive variant (95 % half-width, 8-bit display)")
+        ->check(CLI::Range(1e-3, 255.0))
+        ->capture_default_str();
+    app.add_option("--texture-cone", o->texture_cone,
+                   "insert: spread (radians) of the texture-filtering variants' ray cone")
+        ->check(CLI::Range(1e-4, 3.2))
+        ->capture_default_str();
+    app.add_option("--roulette", o->roulette,
+                   "insert: adaptive variant's probability that an untouched pixel goes on")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    app.add_option("--cache", o->cache,
+                   "insert: folder of the cached reference (default ./vbme-bench-cache)");
     app.add_option("--width", o->width, "Frame width")
         ->check(CLI::Range(64, 8192))
         ->capture_default_str();
@@ -229,6 +617,12 @@ void setupBench(CLI::App& app) {
         }
 #else
         if (o->what == "differential")
+            CV_Error(cv::Error::StsError, "vbme was built without vbme_render");
+#endif
+#ifdef VBME_BENCH_RENDER
+        if (o->what == "render-peer") benchRenderPeer(*o);
+#else
+        if (o->what == "render-peer")
             CV_Error(cv::Error::StsError, "vbme was built without vbme_render");
 #endif
 #ifdef VBME_BENCH_PIPELINE

@@ -142,6 +142,27 @@ void setupInsert(CLI::App& app) {
         ->capture_default_str();
     app.add_flag("--per-frame-gain", o->p.per_frame_gain,
                  "Light estimation also fits one exposure gain per frame (auto-exposure)");
+    app.add_option("--adaptive-min-spp", o->p.adaptive_min_spp,
+                   "Adaptive sampling: samples every pixel takes first; a pixel where no path "
+                   "met the object stops there, others go on until --adaptive-error is met, at "
+                   "most 4 x --spp (0: every pixel takes --spp)")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    app.add_option("--adaptive-error", o->p.adaptive_error,
+                   "Adaptive sampling's target: 95 % half-width of a composite pixel in 8-bit "
+                   "display values")
+        ->check(CLI::Range(1e-3, 255.0))
+        ->capture_default_str();
+    app.add_option("--adaptive-roulette", o->p.adaptive_roulette,
+                   "Probability that a pixel where no path met the object still goes on "
+                   "(unbiased, noisier; 0: its difference stays exactly 0)")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    app.add_option("--texture-cone", o->p.texture_cone,
+                   "Texture filtering after diffuse bounces: ray cone spread in radians (0: "
+                   "off)")
+        ->check(CLI::Range(0.0, 3.2))
+        ->capture_default_str();
     app.add_option("--threads", o->p.threads, "Worker threads (default: all cores)")
         ->check(CLI::NonNegativeNumber);
     addVideoOutputOptions(app, o->p.encode);

@@ -709,11 +709,21 @@ InsertionReport runInsertion(const InsertionParams& p) {
     rp.threads = p.threads;
     rp.seed = frameSeed(prep.scene.render.seed, 0, SEEDS_FIXED);
     rep.spp = rp.spp;
+    rp.texture_cone = (float)p.texture_cone;
+    if (p.adaptive_min_spp > 0) {  // spp stays the reported budget; a pixel takes ≤ 4 × spp
+        rp.adaptive_min_spp = std::min(p.adaptive_min_spp, rp.spp);
+        rp.adaptive_error = (float)p.adaptive_error;
+        rp.adaptive_roulette = (float)p.adaptive_roulette;
+        rp.spp *= 4;
+    }
     {
         // the frames folder records the settings its frames were made with
         const std::string settings = (fs::path(work) / "frames" / "settings.yml").string();
-        const std::string want = format("%s spp=%d max_depth=%d seed=%llu", hash.c_str(), rp.spp,
-                                        rp.max_depth, (unsigned long long)rp.seed);
+        std::string want = format("%s spp=%d max_depth=%d seed=%llu", hash.c_str(), rep.spp,
+                                  rp.max_depth, (unsigned long long)rp.seed);
+        if (rp.adaptive_min_spp > 0 || rp.texture_cone > 0)
+            want += format(" adaptive=%d,%g,%g texture_cone=%g", rp.adaptive_min_spp,
+                           rp.adaptive_error, rp.adaptive_roulette, rp.texture_cone);
         if (fs::exists(settings)) {
             FileStorage f(settings, FileStorage::READ);
             const std::string have = f.isOpened() ? (std::string)f["made_with"] : std::string();
@@ -788,14 +798,20 @@ InsertionReport runInsertion(const InsertionParams& p) {
                     {"vbme.version", VBME_VERSION},
                     {"vbme.commandLine", p.command_line},
                     {"vbme.seed", std::to_string(rp.seed)},
-                    {"vbme.spp", std::to_string(rp.spp)},
+                    {"vbme.spp", std::to_string(rep.spp)},
                     {"vbme.maxDepth", std::to_string(rp.max_depth)},
                     {"vbme.frame", std::to_string(i)},
                     {"vbme.scene", p.scene},
                     {"vbme.video", p.video},
                     {"vbme.prepared", hash},
                     {"vbme.response", toString(cp.response)},
-                    {"vbme.sampling", "correlated"}};
+                    {"vbme.sampling", rp.adaptive_min_spp > 0
+                                          ? format("correlated, adaptive %d..%d spp, error %g, "
+                                                   "roulette %g",
+                                                   rp.adaptive_min_spp, rp.spp, rp.adaptive_error,
+                                                   rp.adaptive_roulette)
+                                          : std::string("correlated")},
+                    {"vbme.textureCone", format("%g", rp.texture_cone)}};
                 writeDifferentialExr(exrFile(work, i), im, linear, attr);
             }
             imwriteAtomic(out_file, enc);  // last: its presence means the frame is done

@@ -140,6 +140,7 @@ public:
         out.noobj = without.color;
         subtract(out.obj, out.noobj, out.diff);
         out.object = with.object;
+        out.samples = with.samples;
         if (p_.coverage == COVERAGE_PRIMARY_RAYS)
             out.mask = with.mask;
         else

@@ -63,6 +63,11 @@ void Renderer::Params::read(const FileNode& fn) {
     if (!fn["aovs"].empty()) aovs = (int)fn["aovs"] != 0;
     if (!fn["light_selection"].empty())
         light_selection = parseLightSelection((std::string)fn["light_selection"]);
+    if (!fn["adaptive_min_spp"].empty()) adaptive_min_spp = (int)fn["adaptive_min_spp"];
+    if (!fn["adaptive_error"].empty()) adaptive_error = (float)fn["adaptive_error"];
+    if (!fn["texture_cone"].empty()) texture_cone = (float)fn["texture_cone"];
+    if (!fn["adaptive_roulette"].empty()) adaptive_roulette = (float)fn["adaptive_roulette"];
+    if (!fn["adaptive_radius"].empty()) adaptive_radius = (int)fn["adaptive_radius"];
 }
 
 void Renderer::Params::write(FileStorage& fs) const {
@@ -74,6 +79,9 @@ void Renderer::Params::write(FileStorage& fs) const {
     fs << "clamp" << clamp << "rr_depth" << rr_depth << "tile_size" << tile_size << "aovs"
        << (int)aovs;
     fs << "light_selection" << (light_selection == LIGHTS_POWER ? "power" : "uniform");
+    fs << "adaptive_min_spp" << adaptive_min_spp << "adaptive_error" << adaptive_error;
+    fs << "texture_cone" << texture_cone << "adaptive_roulette" << adaptive_roulette
+       << "adaptive_radius" << adaptive_radius;
 }
 
 namespace {
@@ -148,10 +156,15 @@ struct PathState {
     bool prev_delta = true;  // the camera ray counts as specular: no MIS on what it sees
     Vec3f prev_p, o, d;      // previous vertex; the ray about to be traced
     int depth = 0;           // index of the vertex the ray is looking for
-    static PathState start(const Vec3f& o, const Vec3f& d) {
+    // Ray cone @cite Amanatides1984: width at o and spread angle (radians); `filtered`: a
+    // non-specular bounce happened, so texture lookups are filtered over the cone.
+    float cone_width = 0.f, cone_spread = 0.f;
+    bool filtered = false;
+    static PathState start(const Vec3f& o, const Vec3f& d, float pixel_spread = 0.f) {
         PathState s;
         s.prev_p = s.o = o;
         s.d = d;
+        s.cone_spread = pixel_spread;
         return s;
     }
 };
@@ -164,6 +177,16 @@ public:
         if (p.spp <= 0) CV_Error(Error::StsBadArg, "Renderer: spp must be positive");
         if (p.max_depth <= 0) CV_Error(Error::StsBadArg, "Renderer: max_depth must be positive");
         if (p.tile_size <= 0) CV_Error(Error::StsBadArg, "Renderer: tile_size must be positive");
+        if (p.adaptive_min_spp < 0)
+            CV_Error(Error::StsBadArg, "Renderer: adaptive_min_spp must be ≥ 0 (0: off)");
+        if (!(p.texture_cone >= 0.f))
+            CV_Error(Error::StsBadArg, "Renderer: texture_cone must be ≥ 0 (0: off)");
+        if (p.adaptive_radius < 0)
+            CV_Error(Error::StsBadArg, "Renderer: adaptive_radius must be ≥ 0");
+        if (!(p.adaptive_roulette >= 0.f && p.adaptive_roulette <= 1.f))
+            CV_Error(Error::StsBadArg, "Renderer: adaptive_roulette must be in [0, 1]");
+        if (!(p.adaptive_error > 0.f))
+            CV_Error(Error::StsBadArg, "Renderer: adaptive_error must be positive");
         if (p.light_selection != LIGHTS_UNIFORM && p.light_selection != LIGHTS_POWER)
             CV_Error(Error::StsBadArg,
                      "Renderer: light_selection must be LIGHTS_UNIFORM or LIGHTS_POWER");
@@ -245,7 +268,12 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
             if (depth == 0) info.sees_object = true;
         }
         const MaterialRec& m = scene.material(hit.geom_id, hit.prim_id);
-        const Vec3f diffuse = m.diffuseAt(hit.uv);
+        const float cone_width = s.cone_width + s.cone_spread * hit.t;
+        const Vec3f diffuse =
+            s.filtered && m.texture
+                ? m.diffuseFiltered(hit.uv,
+                                    cone_width * scene.uvPerLength(hit.geom_id, hit.prim_id))
+                : m.diffuseAt(hit.uv);
         if (depth == 0) {
             info.albedo = diffuse;
             info.normal = hit.ns;
@@ -333,6 +361,11 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
         prev_pdf = bs.pdf;
         prev_delta = bs.delta;
         prev_p = hit.p;
+        s.cone_width = cone_width;
+        if (!bs.delta && p_.texture_cone > 0.f) {
+            s.cone_spread = std::max(s.cone_spread, p_.texture_cone);
+            s.filtered = true;
+        }
         const float side = wi.dot(hit.ng) > 0.f ? 1.f : -1.f;
         o = hit.p + hit.ng * (side * eps);
         d = wi;
@@ -398,56 +431,181 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
         without->object.release();
         without->mask.release();
     }
-    std::atomic<int64> rays{0};
+    std::atomic<int64> rays{0}, paths{0}, untouched{0};
     const uint32_t spp = (uint32_t)p_.spp;
-    const double inv_spp = 1.0 / spp;
+    const bool adaptive = differential && p_.adaptive_min_spp > 0;
+    const uint32_t n_min = adaptive ? std::min(spp, (uint32_t)p_.adaptive_min_spp) : spp;
+    if (adaptive)
+        out.samples.create(sz, CV_32FC1);
+    else
+        out.samples.release();
+    // Half-width of the 95 % interval of a pixel's composite, in 8-bit display values: the
+    // standard error of the mean of Y mapped through the camera's response at the level.
+    const Response response = camera.response;
+    // Spread angle of a camera ray's cone: one pixel at the image centre.
+    const float pixel_spread = float(1.0 / std::max(camera.K(0, 0), camera.K(1, 1)));
+    auto pixelError = [response](const double* ys, const double* yq, const double* lev,
+                                 uint32_t m) {
+        double err = 0;
+        for (int k = 0; k < 3; ++k) {
+            const double mean = ys[k] / m;
+            const double var = std::max(0.0, (yq[k] - ys[k] * mean) / (m - 1));
+            const double h = 1.96 * std::sqrt(var / m);
+            const double level = std::max(0.0, lev[k] / m);
+            const double hi = encode(float(level + h), response);
+            const double lo = encode(float(std::max(0.0, level - h)), response);
+            err = std::max(err, 0.5 * (hi - lo) * 255.0);
+        }
+        return err;
+    };
 
+    // Adaptive sampling runs in two phases: every pixel's minimum (kept in `pilot`), then,
+    // once the whole image's minimum is known, the rest; an untouched pixel goes on when a
+    // pixel within adaptive_radius was touched (a function of the minimum samples only, so
+    // still the same for any number of threads).
+    struct Pilot {
+        double c[3], a[3], n[3], cn[3], ys[3], yq[3], lev[3], dp[3], obj, msk;
+    };
+    std::vector<Pilot> pilot(adaptive ? size_t(sz.area()) : 0);
+    std::vector<uint8_t> near_touched(adaptive ? size_t(sz.area()) : 0, 0);
+    int phase = adaptive ? 0 : 1;
     auto renderTile = [&](int tile) {
         const int x0 = (tile % tiles_x) * ts, y0 = (tile / tiles_x) * ts;
         const int x1 = std::min(x0 + ts, sz.width), y1 = std::min(y0 + ts, sz.height);
-        int64 tile_rays = 0;
+        int64 tile_rays = 0, tile_paths = 0, tile_untouched = 0;
         for (int y = y0; y < y1; ++y) {
             for (int x = x0; x < x1; ++x) {
                 const uint64 px = sampler.pixelKey(Point(x, y));
                 double c[3] = {0, 0, 0}, a[3] = {0, 0, 0}, n[3] = {0, 0, 0}, obj = 0, msk = 0;
                 double cn[3] = {0, 0, 0};  // without the objects (differential)
-                for (uint32_t s = 0; s < spp; ++s) {
-                    const Vec2f off =
-                        filterOffset(p_.filter, sampler.get2D(px, s, PathDims::kFilm));
-                    Vec3f o, d;
-                    cam.generateRay(Point2f(x + off[0], y + off[1]), o, d);
-                    PathInfo info;
-                    PathState fork;
-                    Vec3f L = trace(scene, lights, sampler, PathState::start(o, d), with_objects,
-                                    track_objects, px, s, info, differential ? &fork : nullptr);
-                    Vec3f Ln = L;
-                    if (info.forked) {
-                        PathInfo info_n;
-                        Ln = trace(scene, lights, sampler, fork, false, false, px, s, info_n,
-                                   nullptr);
-                        tile_rays += info_n.rays;
+                // Adaptive sampling: the composite's per-sample value Y (L where the camera
+                // ray sees an object, L − Ln elsewhere) and its display level.
+                double ys[3] = {0, 0, 0}, yq[3] = {0, 0, 0}, lev[3] = {0, 0, 0};
+                double dp[3] = {0, 0, 0}, dl[3] = {0, 0, 0};  // Σ(L − Ln): minimum, later
+                uint32_t taken = 0;
+                auto takeSamples = [&](uint32_t upto) {
+                    for (; taken < upto; ++taken) {
+                        const uint32_t s = taken;
+                        const Vec2f off =
+                            filterOffset(p_.filter, sampler.get2D(px, s, PathDims::kFilm));
+                        Vec3f o, d;
+                        cam.generateRay(Point2f(x + off[0], y + off[1]), o, d);
+                        PathInfo info;
+                        PathState fork;
+                        Vec3f L = trace(scene, lights, sampler,
+                                        PathState::start(o, d, pixel_spread), with_objects,
+                                        track_objects, px, s, info, differential ? &fork : nullptr);
+                        Vec3f Ln = L;
+                        if (info.forked) {
+                            PathInfo info_n;
+                            Ln = trace(scene, lights, sampler, fork, false, false, px, s, info_n,
+                                       nullptr);
+                            tile_rays += info_n.rays;
+                        }
+                        if (p_.clamp > 0.f) {
+                            const float mc = maxComp(L);
+                            if (mc > p_.clamp) L *= p_.clamp / mc;
+                            const float mn = maxComp(Ln);
+                            if (mn > p_.clamp) Ln *= p_.clamp / mn;
+                        }
+                        for (int k = 0; k < 3; ++k) {
+                            cn[k] += Ln[k];
+                            c[k] += L[k];
+                            a[k] += info.albedo[k];
+                            n[k] += info.normal[k];
+                        }
+                        if (adaptive) {
+                            double* dsum = taken < n_min ? dp : dl;
+                            for (int k = 0; k < 3; ++k)
+                                dsum[k] += double(L[k]) - Ln[k];
+                            for (int k = 0; k < 3; ++k) {
+                                const double yv = info.sees_object ? L[k] : double(L[k]) - Ln[k];
+                                ys[k] += yv;
+                                yq[k] += yv * yv;
+                                lev[k] += info.sees_object ? L[k] : Ln[k];
+                            }
+                        }
+                        obj += info.touched_object ? 1.0 : 0.0;
+                        msk += info.sees_object ? 1.0 : 0.0;
+                        tile_rays += info.rays;
                     }
-                    if (p_.clamp > 0.f) {
-                        const float mc = maxComp(L);
-                        if (mc > p_.clamp) L *= p_.clamp / mc;
-                        const float mn = maxComp(Ln);
-                        if (mn > p_.clamp) Ln *= p_.clamp / mn;
-                    }
+                };
+                const size_t pi = size_t(y) * sz.width + x;
+                if (adaptive && phase == 1) {  // resume from the stored minimum
+                    const Pilot& q = pilot[pi];
                     for (int k = 0; k < 3; ++k) {
-                        cn[k] += Ln[k];
-                        c[k] += L[k];
-                        a[k] += info.albedo[k];
-                        n[k] += info.normal[k];
+                        c[k] = q.c[k], a[k] = q.a[k], n[k] = q.n[k], cn[k] = q.cn[k];
+                        ys[k] = q.ys[k], yq[k] = q.yq[k], lev[k] = q.lev[k], dp[k] = q.dp[k];
                     }
-                    obj += info.touched_object ? 1.0 : 0.0;
-                    msk += info.sees_object ? 1.0 : 0.0;
-                    tile_rays += info.rays;
+                    obj = q.obj;
+                    msk = q.msk;
+                    taken = n_min;
+                } else {
+                    takeSamples(n_min);
                 }
-                out.color.at<Vec3f>(y, x) =
-                    Vec3f(float(c[2] * inv_spp), float(c[1] * inv_spp), float(c[0] * inv_spp));
-                if (differential)
-                    without->color.at<Vec3f>(y, x) = Vec3f(
-                        float(cn[2] * inv_spp), float(cn[1] * inv_spp), float(cn[0] * inv_spp));
+                if (phase == 0) {
+                    Pilot& q = pilot[pi];
+                    for (int k = 0; k < 3; ++k) {
+                        q.c[k] = c[k], q.a[k] = a[k], q.n[k] = n[k], q.cn[k] = cn[k];
+                        q.ys[k] = ys[k], q.yq[k] = yq[k], q.lev[k] = lev[k], q.dp[k] = dp[k];
+                    }
+                    q.obj = obj;
+                    q.msk = msk;
+                    continue;
+                }
+                double later_weight = 1.0;  // 1 / probability of taking the later samples
+                if (adaptive && taken < spp) {
+                    bool go = true;
+                    if (obj == 0 && !near_touched[pi]) {  // no path here or near met one
+                        const float u = float((px * 0x9E3779B97F4A7C15ull) >> 40) * 0x1p-24f;
+                        if (u < p_.adaptive_roulette)
+                            later_weight = 1.0 / p_.adaptive_roulette;
+                        else
+                            go = false;
+                    }
+                    if (go) {
+                        // How many more: from the minimum's error alone (so that the later
+                        // samples are independent of the decision), at least one batch.
+                        double more = n_min;
+                        if (obj > 0 && taken >= 2) {
+                            const double e = pixelError(ys, yq, lev, taken) / p_.adaptive_error;
+                            more = std::max(more, std::ceil(n_min * e * e) - n_min);
+                        }
+                        takeSamples((uint32_t)std::min<double>(spp, n_min + more));
+                    } else {
+                        ++tile_untouched;
+                    }
+                }
+                if (adaptive) out.samples.at<float>(y, x) = float(taken);
+                tile_paths += taken;
+                const double inv_spp = 1.0 / taken;
+                double dest[3];  // the difference's estimate (adaptive)
+                if (adaptive && taken > n_min) {
+                    // Fixed weights of the minimum and the later samples: the later ones are
+                    // independent of the decision to take them, so with the roulette's weight
+                    // the estimate is unbiased (up to the error-driven stopping).
+                    const double alpha = double(n_min) / spp, m = taken - n_min;
+                    for (int k = 0; k < 3; ++k)
+                        dest[k] = alpha * dp[k] / n_min + (1 - alpha) * later_weight * dl[k] / m;
+                } else {
+                    for (int k = 0; k < 3; ++k)
+                        dest[k] = dp[k] / n_min;
+                }
+                if (adaptive) {
+                    Vec3f wo, wn;
+                    for (int k = 0; k < 3; ++k) {
+                        wn[2 - k] = float(cn[k] * inv_spp);
+                        wo[2 - k] = wn[2 - k] + float(dest[k]);
+                    }
+                    out.color.at<Vec3f>(y, x) = wo;
+                    without->color.at<Vec3f>(y, x) = wn;
+                } else {
+                    out.color.at<Vec3f>(y, x) =
+                        Vec3f(float(c[2] * inv_spp), float(c[1] * inv_spp), float(c[0] * inv_spp));
+                    if (differential)
+                        without->color.at<Vec3f>(y, x) = Vec3f(
+                            float(cn[2] * inv_spp), float(cn[1] * inv_spp), float(cn[0] * inv_spp));
+                }
                 if (p_.aovs) {
                     out.albedo.at<Vec3f>(y, x) =
                         Vec3f(float(a[2] * inv_spp), float(a[1] * inv_spp), float(a[0] * inv_spp));
@@ -459,18 +617,35 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                     out.mask.at<float>(y, x) = float(msk * inv_spp);
                 }
             }
-            if (progress) progress->tick(x1 - x0);
+            if (progress && phase == 1) progress->tick(x1 - x0);
         }
         rays += tile_rays;
+        paths += tile_paths;
+        untouched += tile_untouched;
     };
 
     const int n_tiles = tiles_x * tiles_y;
-    auto body = [&] {
+    auto pass = [&] {
         tbb::parallel_for(tbb::blocked_range<int>(0, n_tiles, 1),
                           [&](const tbb::blocked_range<int>& r) {
                               for (int t = r.begin(); t != r.end(); ++t)
                                   renderTile(t);
                           });
+    };
+    auto body = [&] {
+        pass();
+        if (phase == 1) return;
+        // Which pixels have a touched pixel within the radius (square window).
+        const int R = std::max(0, p_.adaptive_radius);
+        for (int y = 0; y < sz.height; ++y)
+            for (int x = 0; x < sz.width; ++x) {
+                if (pilot[size_t(y) * sz.width + x].obj == 0) continue;
+                for (int v = std::max(0, y - R); v <= std::min(sz.height - 1, y + R); ++v)
+                    for (int u = std::max(0, x - R); u <= std::min(sz.width - 1, x + R); ++u)
+                        near_touched[size_t(v) * sz.width + u] = 1;
+            }
+        phase = 1;
+        pass();
     };
     if (p_.threads > 0) {
         // Allow more workers than cores when asked (TBB's default cap is the core count).
@@ -484,7 +659,8 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
 
     RenderStats st;
     st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    st.paths = int64(sz.area()) * spp;
+    st.paths = paths.load();
+    st.pixels_untouched = untouched.load();
     st.rays = rays.load();
     return st;
 }

@@ -31,6 +31,10 @@ struct MaterialRec {
     Vec3f absorption;
 
     Vec3f diffuseAt(const Vec2f& uv) const { return texture ? texture->eval(uv) : diffuse; }
+    /** Diffuse colour averaged over a footprint @p width wide in texture coordinates. */
+    Vec3f diffuseFiltered(const Vec2f& uv, float width) const {
+        return texture ? texture->evalFiltered(uv, width) : diffuse;
+    }
     Vec3f emissionAt(const Vec2f& uv) const {
         return emission_tex ? emission_tex->eval(uv) : emission;
     }
@@ -83,6 +87,21 @@ public:
     static float epsilon(const Vec3f& p) {
         const float m = std::max(std::abs(p[0]), std::max(std::abs(p[1]), std::abs(p[2])));
         return 1e-5f * std::max(m, 1.f);
+    }
+    /** Texture-coordinate length per world length on triangle @p prim of geometry @p g
+    (√(uv area / world area); barycentric (b1, b2) when the geometry has no uv). */
+    float uvPerLength(int g, int prim) const {
+        const GeometryRec& r = geoms_[g];
+        const uint32_t* tri = &r.idx[3 * size_t(prim)];
+        const Vec3f a = r.vertex(tri[0]), b = r.vertex(tri[1]), c = r.vertex(tri[2]);
+        const Vec3f n = (b - a).cross(c - a);
+        const float world2 = std::sqrt(n.dot(n));
+        float uv2 = 1.f;
+        if (!r.uv.empty()) {
+            const Vec2f p = r.uv[tri[1]] - r.uv[tri[0]], q = r.uv[tri[2]] - r.uv[tri[0]];
+            uv2 = std::abs(p[0] * q[1] - p[1] * q[0]);
+        }
+        return world2 > 0.f ? std::sqrt(uv2 / world2) : 0.f;
     }
     /** Index of the emitter of a LIGHT geometry. */
     int lightOf(int g) const { return geoms_[g].light; }

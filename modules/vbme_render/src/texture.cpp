@@ -15,6 +15,10 @@ namespace vbme {
 
 Texture::~Texture() = default;
 
+Vec3f Texture::evalFiltered(const Vec2f& uv, float) const {
+    return eval(uv);
+}
+
 namespace {
 
 class ConstantTexture : public Texture {
@@ -49,6 +53,7 @@ public:
                 px_[size_t(y) * w_ + x] = f.at<Vec3f>(y, x);
         Scalar m = cv::mean(f);
         mean_ = Vec3f(float(m[0]), float(m[1]), float(m[2]));
+        buildMipmap(f);
     }
     Vec3f eval(const Vec2f& uv) const override {
         const float x = uv[0] * w_ - 0.5f, y = (1.f - uv[1]) * h_ - 0.5f;
@@ -66,7 +71,75 @@ public:
     }
     Vec3f mean() const override { return mean_; }
 
+    Vec3f evalFiltered(const Vec2f& uv, float width) const override {
+        const float texels = width * float(std::max(w_, h_));
+        if (!(texels >= 2.f) || levels_.empty()) return eval(uv);  // also NaN width
+        const int k = std::min((int)levels_.size(), ilogb2(texels));
+        const Level& L = levels_[k - 1];
+        const float x = uv[0] * L.w - 0.5f, y = (1.f - uv[1]) * L.h - 0.5f;
+        if (!(std::isfinite(x) && std::isfinite(y))) return mean_;
+        const float fx = std::floor(x), fy = std::floor(y);
+        const float ax = x - fx, ay = y - fy;
+        const int x0 = int(fx), y0 = int(fy);
+        const int X0 = wrapIndex(x0, L.w), X1 = wrapIndex(x0 + 1, L.w);
+        const int Y0 = wrapIndex(y0, L.h), Y1 = wrapIndex(y0 + 1, L.h);
+        const size_t i00 = size_t(Y0) * L.w + X0, i01 = size_t(Y0) * L.w + X1,
+                     i10 = size_t(Y1) * L.w + X0, i11 = size_t(Y1) * L.w + X1;
+        const float w00 = (1.f - ax) * (1.f - ay), w01 = ax * (1.f - ay), w10 = (1.f - ax) * ay,
+                    w11 = ax * ay;
+        if (!L.f.empty()) return L.f[i00] * w00 + L.f[i01] * w01 + L.f[i10] * w10 + L.f[i11] * w11;
+        return unpack(L.c[i00]) * w00 + unpack(L.c[i01]) * w01 + unpack(L.c[i10]) * w10 +
+               unpack(L.c[i11]) * w11;
+    }
+
 private:
+    /** One reduced level: float texels, or 8-bit sRGB packed as 0x00BBGGRR. */
+    struct Level {
+        int w = 0, h = 0;
+        std::vector<Vec3f> f;
+        std::vector<uint32_t> c;
+    };
+    static int ilogb2(float v) { return std::ilogb(v); }  // ⌊log2 v⌋ for v ≥ 1
+    Vec3f unpack(uint32_t p) const {
+        return Vec3f(lut_[p & 0xffu], lut_[(p >> 8) & 0xffu], lut_[(p >> 16) & 0xffu]);
+    }
+    void buildMipmap(const Mat& rgb) {
+        double lo, hi;
+        minMaxLoc(rgb.reshape(1), &lo, &hi);
+        const bool compact = lo >= 0.0 && hi <= 1.0;
+        for (int i = 0; i < 256; ++i)
+            lut_[i] = linearize(i / 255.f, Response::SRGB);
+        Mat cur = rgb;
+        while (cur.cols > 1 || cur.rows > 1) {
+            Mat next;
+            resize(cur, next, Size(std::max(1, cur.cols / 2), std::max(1, cur.rows / 2)), 0, 0,
+                   INTER_AREA);
+            Level L;
+            L.w = next.cols;
+            L.h = next.rows;
+            if (compact) {
+                L.c.resize(size_t(L.w) * L.h);
+                for (int y = 0; y < L.h; ++y)
+                    for (int x = 0; x < L.w; ++x) {
+                        const Vec3f& v = next.at<Vec3f>(y, x);
+                        uint32_t p = 0;
+                        for (int c = 0; c < 3; ++c) {
+                            const float e =
+                                encode(std::min(1.f, std::max(0.f, v[c])), Response::SRGB);
+                            p |= uint32_t(std::lround(e * 255.f)) << (8 * c);
+                        }
+                        L.c[size_t(y) * L.w + x] = p;
+                    }
+            } else {
+                L.f.resize(size_t(L.w) * L.h);
+                for (int y = 0; y < L.h; ++y)
+                    for (int x = 0; x < L.w; ++x)
+                        L.f[size_t(y) * L.w + x] = next.at<Vec3f>(y, x);
+            }
+            levels_.push_back(std::move(L));
+            cur = next;
+        }
+    }
     int wrapIndex(int i, int n) const {
         if (wrap_ == WRAP_CLAMP) return i < 0 ? 0 : (i >= n ? n - 1 : i);
         i %= n;
@@ -76,6 +149,8 @@ private:
     int w_ = 0, h_ = 0;
     std::vector<Vec3f> px_;
     Vec3f mean_;
+    std::vector<Level> levels_;  // levels 1, 2, … of the mip-map
+    float lut_[256];             // 8-bit sRGB → linear
 };
 
 }  // namespace

@@ -21,11 +21,12 @@ namespace vbme {
 
 /** @brief The layers of a differential render (all CV_32F, the render's size, linear BGR). */
 struct CV_EXPORTS DifferentialImages {
-    Mat obj;     //!< CV_32FC3, I_obj: the scene with its `objects:`
-    Mat noobj;   //!< CV_32FC3, I_noObj: the same scene without them (room, lights, proxies)
-    Mat diff;    //!< CV_32FC3, I_obj − I_noObj (exactly 0 where no path met an object)
-    Mat mask;    //!< CV_32FC1, the objects' coverage M in [0, 1]
-    Mat object;  //!< CV_32FC1, fraction of the pixel's paths that interacted with an object
+    Mat obj;      //!< CV_32FC3, I_obj: the scene with its `objects:`
+    Mat noobj;    //!< CV_32FC3, I_noObj: the same scene without them (room, lights, proxies)
+    Mat diff;     //!< CV_32FC3, I_obj − I_noObj (exactly 0 where no path met an object)
+    Mat mask;     //!< CV_32FC1, the objects' coverage M in [0, 1]
+    Mat object;   //!< CV_32FC1, fraction of the pixel's paths that interacted with an object
+    Mat samples;  //!< CV_32FC1, samples per pixel of adaptive sampling (empty when off)
 };
 
 /** @brief How the coverage mask M of the objects is made. */

@@ -19,13 +19,14 @@ namespace vbme {
 
 /** @brief The images a render produces (all CV_32F, the render's size). */
 struct CV_EXPORTS RenderImages {
-    Mat color;   //!< CV_32FC3, linear scene-referred radiance, BGR order
-    Mat albedo;  //!< CV_32FC3, diffuse colour at the first hit (BGR), black where nothing was hit
-    Mat normal;  //!< CV_32FC3, world shading normal at the first hit, channels (X, Y, Z)
-    Mat object;  //!< CV_32FC1, fraction of the pixel's paths that interacted with an `objects:`
-                 //!< mesh (a path vertex on it, or a shadow ray it blocked)
-    Mat mask;    //!< CV_32FC1, fraction of the pixel's camera rays whose first hit is an
-                 //!< `objects:` mesh (the compositing mask M of differential rendering)
+    Mat color;    //!< CV_32FC3, linear scene-referred radiance, BGR order
+    Mat albedo;   //!< CV_32FC3, diffuse colour at the first hit (BGR), black where nothing was hit
+    Mat normal;   //!< CV_32FC3, world shading normal at the first hit, channels (X, Y, Z)
+    Mat object;   //!< CV_32FC1, fraction of the pixel's paths that interacted with an `objects:`
+                  //!< mesh (a path vertex on it, or a shadow ray it blocked)
+    Mat mask;     //!< CV_32FC1, fraction of the pixel's camera rays whose first hit is an
+                  //!< `objects:` mesh (the compositing mask M of differential rendering)
+    Mat samples;  //!< CV_32FC1, samples taken per pixel (adaptive sampling only, else empty)
 };
 
 /** @brief Reconstruction filter of the film.

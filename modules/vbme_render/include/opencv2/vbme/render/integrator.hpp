@@ -21,6 +21,9 @@ struct CV_EXPORTS RenderStats {
     double seconds = 0;  //!< wall-clock time of the render
     int64 paths = 0;     //!< camera paths traced (pixels × spp)
     int64 rays = 0;      //!< rays traced (closest-hit and shadow)
+    /** @brief Pixels that stopped at the minimum of adaptive sampling because no path met an
+    object (0 without adaptive sampling). */
+    int64 pixels_untouched = 0;
 };
 
 /** @brief The path tracer: renders a RenderScene through a camera.
@@ -74,6 +77,45 @@ public:
         int tile_size = 16;              //!< tile edge in pixels (parallel work unit)
         bool aovs = true;                //!< also produce albedo, normal and object images
         int light_selection = LIGHTS_UNIFORM;  //!< LightSelection
+        /** @brief Adaptive sampling of differential renders (renderDifferential() only; 0:
+        off, every pixel gets `spp`). When > 0, every pixel first takes this many samples
+        (the minimum); a pixel none of whose paths met an object (its difference is exactly 0)
+        stops there, unless a pixel within `adaptive_radius` had one that did, or with
+        probability `adaptive_roulette`; the others take batches of
+        this many more samples until the estimated error of the composite (see
+        `adaptive_error`) is below the target or `spp` (then the maximum) is reached. The
+        without-objects image is the mean of all samples taken; the difference is
+        α·(mean of the minimum) + (1 − α)·w·(mean of the later samples), α = minimum / spp,
+        w = 1 / `adaptive_roulette` for a pixel that went on by the roulette, else 1: the later
+        samples are independent of the decision to take them, so the estimate is unbiased
+        up to the error-driven stopping. The with-objects image is the without-objects one
+        plus the difference. The schedule depends only on the pixel's own samples: bitwise
+        identical for any number of threads. */
+        int adaptive_min_spp = 0;
+        /** @brief Target of adaptive sampling: the half-width of the 95 % confidence interval
+        of a pixel's composite value, in display code values of 8 bits (0 … 255) through
+        the camera's response. The composite's per-sample value is the render with the
+        objects where the camera ray meets an object, and the difference (with − without)
+        elsewhere; its standard error is mapped to display values at the render's level. */
+        float adaptive_error = 0.5f;
+        /** @brief Texture filtering after non-specular bounces (0: off, every lookup is
+        bilinear in the full image). When > 0, each path carries a ray cone
+        @cite Amanatides1984 that starts one pixel wide at the camera; at the first
+        non-specular (diffuse or glossy) bounce its spread angle becomes at least this many
+        radians, and diffuse textures hit after that are looked up with
+        Texture::evalFiltered() over the cone's width there. Camera-ray hits are unchanged. */
+        float texture_cone = 0.f;
+        /** @brief Probability that a pixel whose minimum samples met no object still goes on
+        (adaptive sampling; its later differences then weigh 1 / this). 0: such pixels always
+        stop with a difference of exactly 0, which misses rare indirect effects of the
+        objects (shadowed light that reaches the pixel over a bounce) and biases them. */
+        float adaptive_roulette = 0.25f;
+        /** @brief Adaptive sampling: a pixel whose minimum met no object still goes on (with
+        weight 1) when a pixel within this many pixels (square window) had a path that met
+        one, so that soft shadows and penumbrae, where only some paths meet the object, are
+        not cut off. The decision uses the whole image's minimum samples (a first pass before
+        the rest): still independent of the thread count. */
+        int adaptive_radius = 2;
 
         /** @brief spp, max_depth and seed from a scene's render settings. */
         static Params fromScene(const RenderSettings& s);

@@ -35,6 +35,16 @@ public:
     virtual Vec3f eval(const Vec2f& uv) const = 0;
     /** @brief The mean colour (linear RGB). */
     virtual Vec3f mean() const = 0;
+    /** @brief Linear RGB colour at (u, v) averaged over a footprint @p width wide in texture
+    coordinates (a fraction of the image width), for lookups whose ray cone is wide (hits after
+    a diffuse bounce) @cite Williams1983.
+
+    An image texture keeps a mip-map: level k is the image box-filtered to 1/2^k of its size
+    (levels above 0 as 8-bit sRGB through a look-up table when every value lies in [0, 1],
+    else as float); the lookup is bilinear in level ⌊log2(width · max(W, H))⌋, clamped to the
+    pyramid, and in the full image (eval()) when that level is ≤ 0. Constant textures and
+    the default implementation return eval(). */
+    virtual Vec3f evalFiltered(const Vec2f& uv, float width) const;
 
     /** @brief A constant colour (linear RGB). */
     static Ptr<Texture> createConstant(const Vec3f& rgb);
