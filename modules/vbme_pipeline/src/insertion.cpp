@@ -16,6 +16,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
@@ -835,9 +836,15 @@ InsertionReport runInsertion(const InsertionParams& p) {
         rep.video_written = true;  // made meanwhile by another process on this work folder
     } else if (rep.missing.empty()) {
         const auto t0 = Clock::now();
-        // the input's timestamps, colour tags and audio are carried by the sink
+        // the input's timestamps, colour tags and audio are carried by the sink. A video file
+        // is written under a temporary name of ours, read back, then renamed: a short write (a
+        // full disk) the encoder did not report leaves no partial video under the output name
+        const bool pattern = p.out.find('%') != std::string::npos;
+        std::unique_ptr<AtomicFile> vout;
+        if (!pattern) vout.reset(new AtomicFile(p.out));
+        const std::string target = vout ? vout->tempPath() : p.out;
         VideoReader reader(p.video);
-        VideoSink sink(p.out, reader.fps(), scene.image_size,
+        VideoSink sink(target, reader.fps(), scene.image_size,
                        sinkOptionsFrom(reader, p.out, p.encode));
         Progress progress("encode", n);
         double t = -1;
@@ -848,6 +855,25 @@ InsertionReport runInsertion(const InsertionParams& p) {
         }
         progress.finish();
         sink.close();
+        if (vout) {
+            int readable = 0;
+            try {
+                VideoReader check(target);
+                while (check.read(noArray()))
+                    ++readable;
+            } catch (const cv::Exception&) {
+            }
+            if (readable < n) {
+                std::error_code ec;
+                fs::remove(target, ec);
+                CV_Error(Error::StsError,
+                         format("the video '%s' came out incomplete (%d of %d frames readable; "
+                                "disk full?): not written; the frames are kept in '%s', run the "
+                                "command again to write it",
+                                p.out.c_str(), readable, n, (fs::path(work) / "frames").c_str()));
+            }
+            vout->commit();
+        }
         rep.video_written = true;
         rep.seconds["encode"] = secondsSince(t0);
     }
