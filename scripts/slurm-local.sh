@@ -12,6 +12,8 @@ cmd="${1:-}"; DIR="${2:-}"
 [ -n "$cmd" ] && [ -n "$DIR" ] || { sed -n '2,9p' "$0"; exit 2; }
 mkdir -p "$DIR"; DIR="$(cd "$DIR" && pwd)"
 fail() { echo "slurm-local: $*" >&2; exit 3; }
+# munge's socket must fit a Unix socket address (108 bytes): use a short DIR such as /tmp/x
+[ "$cmd" != start ] || [ ${#DIR} -le 80 ] || fail "'$DIR' is too long for munge's socket path"
 
 stop() {
   for d in slurmd slurmctld munged; do

@@ -2,6 +2,8 @@
 // vbme farm slurm (doc/cluster.md): the batch scripts split the frames exactly, and on a real
 // single-node Slurm cluster (scripts/slurm-local.sh, when slurm-wlm and munge are installed
 // and we may start it) the job chain makes the same video as one machine.
+#include <stdlib.h>
+
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -82,24 +84,33 @@ TEST(AppFarm, ScriptsSplitEveryFrameOnceAndRequestMoreForLargerFrames) {
               2);
 }
 
-// Stops the cluster the test started, whatever happens.
+// Stops the cluster the test started, whatever happens. Its folder is a short one under /tmp:
+// munge's socket path must fit a Unix socket address (108 bytes).
 struct LocalSlurm {
     std::string dir;
+    bool started = false;
+    LocalSlurm() {
+        char tmpl[] = "/tmp/vbme-slurm-XXXXXX";
+        if (::mkdtemp(tmpl)) dir = tmpl;
+    }
     ~LocalSlurm() {
-        if (!dir.empty())
+        if (started)
             run(std::string("bash ") + VBME_SOURCE_DIR + "/scripts/slurm-local.sh stop '" + dir +
                 "'");
+        std::error_code ec;
+        if (!dir.empty()) fs::remove_all(dir, ec);
     }
 };
 
 TEST(AppFarm, SlurmClusterMakesTheSameVideoAsOneMachine) {
     ScratchDir dir;
     LocalSlurm slurm;
-    const std::string sdir = dir / "slurm";
+    ASSERT_FALSE(slurm.dir.empty());
+    const std::string sdir = slurm.dir;
     auto r = run(std::string("bash ") + VBME_SOURCE_DIR + "/scripts/slurm-local.sh start '" + sdir +
                  "'");
     if (r.code == 3) GTEST_SKIP() << "no Slurm cluster here: " << r.output;
-    slurm.dir = sdir;
+    slurm.started = true;
     ASSERT_EQ(r.code, 0) << r.output;
     const std::string conf = sdir + "/slurm.conf";
     const FaultInputs in = makeFaultInputs(dir, Size(48, 36), 6);

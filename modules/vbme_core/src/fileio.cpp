@@ -94,10 +94,10 @@ void imwriteAtomic(const std::string& path, InputArray img, const std::vector<in
     const int flush_errno = errno;
     const bool closed = std::fclose(f) == 0;
     if (n != bytes.size() || !flushed || !closed)
-        CV_Error(
-            Error::StsError,
-            format("cannot write '%s' (%zu of %zu bytes written): %s (disk full?)", path.c_str(), n,
-                   bytes.size(), std::strerror(n != bytes.size() ? write_errno : flush_errno)));
+        CV_Error(Error::StsError,
+                 format("cannot write '%s': %s (disk full?)", path.c_str(),
+                        std::strerror(n != bytes.size() ? write_errno : flush_errno)));
+
     out.commit();
 }
 
