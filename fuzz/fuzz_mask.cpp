@@ -1,6 +1,7 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-// Fuzz target: the first-frame mask (cv::vbme::readObjectMask, as vbme track and vbme
-// material-edit read it), a PNG file; once without and once with an expected size.
+// Fuzz target: the first-frame mask (cv::vbme::readObjectMask, as vbme material-edit reads it;
+// vbme track decodes it with the same cv::imread and checks it in trackVideo), a PNG file; once
+// without and once with an expected size.
 #include <opencv2/vbme/core/fileio.hpp>
 
 #include "fuzz_util.hpp"

@@ -30,7 +30,7 @@ void runTrack(const TrackOptions& o) {
     opt.overlay = o.overlay;
     opt.overlay_encode = o.encode;
     opt.force = o.common.force;
-    const cv::Mat mask = readObjectMask(o.mask);
+    const cv::Mat mask = imreadChecked(o.mask, cv::IMREAD_GRAYSCALE);
     const TrackVideoSummary s = trackVideo(o.video, mask, o.out, opt);
     const int n = (int)s.results.size();
     std::printf(
