@@ -249,6 +249,8 @@ Material readMaterialFile(const std::string& path) {
                  path + ": not a readable YAML/JSON file: " + std::string(e.what()));
     }
     if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open material file");
+    if (!fs.root().isMap())
+        CV_Error(Error::StsParseError, path + ": expected a map with a top-level 'material'");
     FileNode n = fs["material"];
     if (n.empty()) CV_Error(Error::StsParseError, path + ": missing top-level 'material'");
     Material m;
