@@ -18,6 +18,12 @@
 #include <opencv2/vbme/render.hpp>
 #define VBME_BENCH_RENDER 1
 #endif
+#if __has_include(<opencv2/vbme/calib/camera_tracking.hpp>)
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/vbme/calib/camera_tracking.hpp>
+#include <opencv2/vbme/calib/synthetic_sequence.hpp>
+#define VBME_BENCH_CALIB 1
+#endif
 #if __has_include(<opencv2/vbme/pipeline.hpp>)
 #include <opencv2/vbme/pipeline.hpp>
 #define VBME_BENCH_PIPELINE 1
@@ -41,6 +47,7 @@ struct BenchOptions {
     double texture_cone = 0.1;   // insert: texture filtering variants: cone spread (radians)
     double roulette = 0.25;      // insert: adaptive variant: untouched pixels going on
     std::string cache;  // insert: where the reference is cached (default: ./vbme-bench-cache)
+    std::string clip, methods = "keyframes,full";  // track-camera
 };
 
 // CPU seconds of this process (self) and of its waited-for children.
@@ -371,6 +378,128 @@ void benchRenderPeer(const BenchOptions& o) {
 }
 #endif
 
+#ifdef VBME_BENCH_CALIB
+// Camera tracking: seconds per frame, per-stage times and accuracy per frame class of the
+// keyframe + PnP method and of full COLMAP on the same clip with known cameras: a folder made by
+// scripts/blender/camera_track_clip.py (--clip) or a rendered textured room made here.
+void benchTrackCamera(const BenchOptions& o) {
+    using namespace cv;
+    using namespace cv::vbme;
+    namespace fs = std::filesystem;
+    fs::path frames;
+    Scene scene;
+    std::vector<Camera> truth;
+    if (!o.clip.empty()) {
+        const fs::path clip(o.clip);
+        frames = fs::exists(clip / "clip.mkv") ? clip / "clip.mkv" : clip / "frames";
+        scene = Scene::read((clip / "scene.yml").string());
+        const CameraPath t = CameraPath::read((clip / "truth.yml").string());
+        for (size_t i = 0; i < t.frames.size(); ++i)
+            truth.push_back(t.camera(i));
+    } else {
+        const fs::path dir = fs::temp_directory_path() / format("vbme-bench-track-camera-%dx%d-%d",
+                                                                o.width, o.height, o.frames);
+        frames = dir / "frames";
+        scene = syntheticRoomScene(Size(o.width, o.height), 0.8 * o.width);
+        truth = handheldCameraPath(scene.camera, o.frames, 0.01 * o.frames, 0.01, 0.5, 5);
+        if (!fs::exists(dir / "complete")) {
+            fs::create_directories(frames);
+            const auto textures = makeRoomTextures(3, 1024);
+            Progress progress("render room frames", o.frames);
+            for (int i = 0; i < o.frames; ++i) {
+                imwrite((frames / format("frame_%05d.png", i)).string(),
+                        renderTexturedRoom(truth[i], scene.room, textures, 2));
+                progress.tick();
+            }
+            progress.finish();
+            std::ofstream((dir / "complete").string()) << o.frames << "\n";
+        }
+        std::printf("track-camera: rendered textured room, %d frames %dx%d (cached in %s)\n",
+                    o.frames, o.width, o.height, dir.string().c_str());
+    }
+    const int n = (int)truth.size();
+    auto rotDeg = [](const Matx33d& a, const Matx33d& b) {
+        const Matx33d d = a * b.t();
+        return std::acos(std::max(-1.0, std::min(1.0, (trace(d) - 1) / 2))) * 180 / CV_PI;
+    };
+    auto evaluate = [&](const std::string& label, const CameraPath& path,
+                        const CameraTrackingReport& r) {
+        std::printf(
+            "%s: %.1f s for %d frames = %.3f s/frame; %d keyframes, %d SfM, %d PnP, %d "
+            "interpolated; reprojection RMS %.3f px (refined %.3f), PnP inlier RMS %.3f "
+            "px\n",
+            label.c_str(), r.seconds, n, r.seconds / n, r.keyframes, r.registered, r.pnp,
+            r.interpolated, r.reprojection_rms, r.refined_rms, r.pnp_rms);
+        std::string st;
+        for (const auto& kv : r.stage_seconds)
+            st += format("  %s %.1f s", kv.first.c_str(), kv.second);
+        std::printf("  stages:%s\n", st.c_str());
+        for (int src = 0; src < 3; ++src) {
+            double se = 0, worst = 0, worst_rot = 0;
+            int count = 0;
+            for (int i = 0; i < n && i < (int)path.frames.size(); ++i) {
+                if (path.frames[i].source != src) continue;
+                const Camera est = path.camera(i);
+                const double e = norm(est.center() - truth[i].center());
+                se += e * e;
+                worst = std::max(worst, e);
+                worst_rot = std::max(worst_rot, rotDeg(est.R, truth[i].R));
+                ++count;
+            }
+            if (count)
+                std::printf(
+                    "  %-12s %3d frames: ATE %.2f cm, worst %.2f cm, worst rotation "
+                    "%.3f deg\n",
+                    CameraPath::sourceName((CameraPath::Source)src).c_str(), count,
+                    100 * std::sqrt(se / count), 100 * worst, worst_rot);
+        }
+        std::fflush(stdout);
+    };
+    const fs::path work = fs::temp_directory_path() / "vbme-bench-track-camera-work";
+    double full_spf = 0, key_spf = 0;
+    for (const std::string method : {"keyframes", "full"}) {
+        if (o.methods.find(method) == std::string::npos) continue;
+        fs::remove_all(work / method);
+        CameraTrackingOptions opt;
+        opt.method =
+            method == "full" ? CameraTrackingOptions::FULL : CameraTrackingOptions::KEYFRAMES;
+        CameraTrackingReport r;
+        const double cpu0 = (cpuSeconds(RUSAGE_SELF) + cpuSeconds(RUSAGE_CHILDREN));
+        const CameraPath path =
+            trackCameraVideo(frames.string(), scene, (work / method).string(), opt, &r);
+        const double cpu = (cpuSeconds(RUSAGE_SELF) + cpuSeconds(RUSAGE_CHILDREN)) - cpu0;
+        evaluate(method, path, r);
+        std::printf("  CPU time (vbme and COLMAP): %.1f s = %.3f CPU s/frame\n", cpu, cpu / n);
+        (method == "full" ? full_spf : key_spf) = r.seconds / n;
+        if (method == "keyframes") {
+            // The same keyframes with the other frames interpolated (COLMAP's run reused).
+            opt.pnp = false;
+            const int keyframes = r.keyframes;
+            const CameraPath interp =
+                trackCameraVideo(frames.string(), scene, (work / method).string(), opt, &r);
+            evaluate("keyframes, others interpolated (no PnP)", interp, r);
+            if (o.methods.find("stride") != std::string::npos) {
+                // As many keyframes at a fixed stride, the others by PnP.
+                opt.pnp = true;
+                opt.stride = std::max(2, (n + keyframes - 1) / std::max(1, keyframes));
+                fs::remove_all(work / "stride");
+                try {
+                    const CameraPath strided = trackCameraVideo(
+                        frames.string(), scene, (work / "stride").string(), opt, &r);
+                    evaluate(format("fixed stride %d + PnP", opt.stride), strided, r);
+                } catch (const cv::Exception& e) {
+                    std::printf("fixed stride %d + PnP: failed: %s\n", opt.stride, e.err.c_str());
+                }
+            }
+        }
+    }
+    if (full_spf > 0 && key_spf > 0)
+        std::printf(
+            "keyframes + PnP: %.3f s/frame = %.2fx faster than full COLMAP (%.3f s/frame)\n",
+            key_spf, full_spf / key_spf, full_spf);
+}
+#endif
+
 #ifdef VBME_BENCH_PIPELINE
 // The insertion pipeline on a rendered hand-held room sequence with its true cameras (so COLMAP
 // is not timed): every stage of runInsertion, and seconds per frame against one plain render
@@ -556,8 +685,10 @@ void setupBench(CLI::App& app) {
            "seconds per frame on a rendered 3-frame room sequence, then frame 0 with uniform and "
            "adaptive sampling and the composite's RMSE against a cached high-spp "
            "reference) or render-peer (vbme against Embree's pathtracer on one OBJ "
-           "scene: paths/s ratio and image agreement)")
-        ->check(CLI::IsMember({"track", "differential", "insert", "render-peer"}))
+           "scene: paths/s ratio and image agreement) or track-camera (seconds per frame, "
+           "stage times and accuracy of the keyframe + PnP method and of full COLMAP on a clip "
+           "with known cameras)")
+        ->check(CLI::IsMember({"track", "differential", "insert", "render-peer", "track-camera"}))
         ->capture_default_str();
     app.add_option("--spp", o->spp, "Samples per pixel (differential, insert)")
         ->check(CLI::Range(1, 100000))
@@ -603,6 +734,15 @@ void setupBench(CLI::App& app) {
     app.add_option("--frames", o->frames, "Frames to process (track)")
         ->check(CLI::Range(1, 1000000))
         ->capture_default_str();
+    app.add_option(
+        "--clip", o->clip,
+        "track-camera: a folder with clip.mkv or frames/, scene.yml and truth.yml (as "
+        "written by scripts/blender/camera_track_clip.py); default: a textured room rendered here "
+        "(--frames, --width, --height)");
+    app.add_option("--methods", o->methods,
+                   "track-camera: any of keyframes, full, stride (as many keyframes as the "
+                   "keyframe method chose, at a fixed stride; needs keyframes), comma-separated")
+        ->capture_default_str();
     app.add_option("--threads", o->threads,
                    "OpenCV threads for track (differential and insert render on all cores)")
         ->check(CLI::Range(1, 256))
@@ -624,6 +764,12 @@ void setupBench(CLI::App& app) {
 #else
         if (o->what == "render-peer")
             CV_Error(cv::Error::StsError, "vbme was built without vbme_render");
+#endif
+#ifdef VBME_BENCH_CALIB
+        if (o->what == "track-camera") benchTrackCamera(*o);
+#else
+        if (o->what == "track-camera")
+            CV_Error(cv::Error::StsError, "vbme was built without vbme_calib");
 #endif
 #ifdef VBME_BENCH_PIPELINE
         if (o->what == "insert") {

@@ -1,6 +1,7 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see
 // LICENSE). vbme track-camera: camera path of a hand-held video in the
 // annotated room's frame (COLMAP).
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 
@@ -14,8 +15,11 @@ namespace {
 
 struct TrackCameraOptions {
     std::string video, scene, out, work, overlay, colmap = "colmap";
-    int stride = 1, threads = 2, overlap = 10, seed = 0, colmap_timeout = 0;
-    bool mean_scale = false, no_refine = false;
+    int stride = 1, threads = 2, overlap = 0, seed = 0, features = 0, max_gap = 15,
+        colmap_timeout = 0;
+    double keyframe_motion = 0.08, min_overlap = 0.6;
+    std::string method = "keyframes";
+    bool mean_scale = false, no_refine = false, no_pnp = false;
     double smooth = 0;
     std::string blender;
     std::string vocab_tree;
@@ -46,7 +50,16 @@ void runTrackCamera(const TrackCameraOptions& o) {
     opt.colmap.executable = o.colmap;
     opt.colmap.timeout = o.colmap_timeout;
     opt.colmap.threads = o.threads;
-    opt.colmap.overlap = o.overlap;
+    opt.colmap.overlap = o.overlap > 0 ? o.overlap : 10;
+    if (o.features > 0) opt.colmap.max_num_features = o.features;
+    opt.method =
+        o.method == "full" ? CameraTrackingOptions::FULL : CameraTrackingOptions::KEYFRAMES;
+    if (o.overlap > 0) opt.keyframes.overlap = o.overlap;
+    if (o.features > 0) opt.keyframes.sift_features = o.features;
+    opt.keyframes.max_gap = o.max_gap;
+    opt.keyframes.max_motion = o.keyframe_motion;
+    opt.keyframes.min_overlap = o.min_overlap;
+    opt.pnp = !o.no_pnp;
     opt.colmap.random_seed = o.seed;
     opt.colmap.vocab_tree = o.vocab_tree;
     CameraTrackingReport r;
@@ -61,8 +74,9 @@ void runTrackCamera(const TrackCameraOptions& o) {
         for (size_t i = 0; i < path.frames.size() && reader.read(f); ++i) {
             drawRoomBox(
                 f, path.camera(i), scene.room,
-                path.frames[i].source == CameraPath::SFM ? Scalar(0, 255, 255)
-                                                         : Scalar(0, 128, 255),
+                path.frames[i].source == CameraPath::SFM   ? Scalar(0, 255, 255)
+                : path.frames[i].source == CameraPath::PNP ? Scalar(0, 255, 0)
+                                                           : Scalar(0, 128, 255),
                 format("frame %zu  %s", i, CameraPath::sourceName(path.frames[i].source).c_str()));
             sink.write(f, reader.timestamp());
             progress.tick();
@@ -82,45 +96,70 @@ void runTrackCamera(const TrackCameraOptions& o) {
         AtomicFile rf(report);
         {
             FileStorage fs(rf.tempPath(), FileStorage::WRITE);
-            fs << "frames" << r.frames << "registered" << r.registered << "interpolated"
-               << r.interpolated << "colmap_models" << r.models << "reprojection_rms_px"
-               << r.reprojection_rms << "refined_reprojection_rms_px" << r.refined_rms
-               << "points_on_box_faces" << r.plane_points << "scale_m_per_unit" << r.scale.scale
-               << "scale_relative_spread" << r.scale.spread << "scale_points_used" << r.scale.used
-               << "scale_points_total" << r.scale.total << "seconds" << r.seconds;
+            fs << "method" << o.method << "frames" << r.frames << "keyframes" << r.keyframes
+               << "registered" << r.registered << "pnp" << r.pnp << "interpolated" << r.interpolated
+               << "pnp_rms_px" << r.pnp_rms << "pnp_mean_inliers" << r.pnp_inliers
+               << "colmap_models" << r.models << "reprojection_rms_px" << r.reprojection_rms
+               << "refined_reprojection_rms_px" << r.refined_rms << "points_on_box_faces"
+               << r.plane_points << "scale_m_per_unit" << r.scale.scale << "scale_relative_spread"
+               << r.scale.spread << "scale_points_used" << r.scale.used << "scale_points_total"
+               << r.scale.total << "seconds" << r.seconds << "seconds_per_frame"
+               << (r.frames ? r.seconds / r.frames : 0.0);
+            fs << "stage_seconds"
+               << "{";
+            for (const auto& st : r.stage_seconds) {
+                std::string key = st.first;
+                for (char& ch : key)
+                    if (!std::isalnum((unsigned char)ch)) ch = '_';
+                fs << key << st.second;
+            }
+            fs << "}";
         }
         rf.commit();
     }
+    std::string stages;
+    for (const auto& st : r.stage_seconds)
+        stages += format("%s%s %.1f s", stages.empty() ? "" : ", ", st.first.c_str(), st.second);
+    std::printf("method %s: %d keyframes given to COLMAP; stages: %s\n", o.method.c_str(),
+                r.keyframes, stages.c_str());
     std::printf(
-        "camera path of %d frames: %d from SfM, %d interpolated (%d COLMAP model(s))\n"
+        "camera path of %d frames: %d from SfM, %d by PnP (inlier RMS %.3f px, %.0f inliers per "
+        "frame), %d interpolated (%d COLMAP model(s))\n"
         "reprojection RMS %.3f px (%.3f px after refinement, %d points tied to the box)\n"
         "scale %.5f m per SfM unit from %d of %d frame-0 points (relative spread %.4f)\n"
         "%.1f s (%.2f s/frame); written: %s, %s, COLMAP text model %s\n",
-        r.frames, r.registered, r.interpolated, r.models, r.reprojection_rms, r.refined_rms,
-        r.plane_points, r.scale.scale, r.scale.used, r.scale.total, r.scale.spread, r.seconds,
-        r.frames ? r.seconds / r.frames : 0.0, o.out.c_str(), report.c_str(), colmap_dir.c_str());
+        r.frames, r.registered, r.pnp, r.pnp_rms, r.pnp_inliers, r.interpolated, r.models,
+        r.reprojection_rms, r.refined_rms, r.plane_points, r.scale.scale, r.scale.used,
+        r.scale.total, r.scale.spread, r.seconds, r.frames ? r.seconds / r.frames : 0.0,
+        o.out.c_str(), report.c_str(), colmap_dir.c_str());
 }
 
 void setupTrackCamera(CLI::App& app) {
     auto o = std::make_shared<TrackCameraOptions>();
     app.footer(
-        "Runs COLMAP (headless, CPU) on the video's frames with the "
-        "annotated intrinsics held fixed,\n"
-        "aligns the reconstruction to the annotated frame-0 camera and "
-        "scales it by the robust Eq. 5.3\n"
-        "(feature depths on the room box / SfM depths). Writes the "
-        "camera-path YAML (one entry per frame,\n"
-        "source sfm or interpolated) and a COLMAP text model beside it "
-        "(<out>_colmap/). The work folder\n"
-        "(default <out>_work/ beside the output) keeps the frames and "
-        "COLMAP's run: a second run resumes.");
+        "Chooses keyframes by the motion and survival of corners tracked through the video,\n"
+        "runs COLMAP (headless, CPU) on the keyframes with the annotated intrinsics held fixed,\n"
+        "aligns the reconstruction to the annotated frame-0 camera, scales it by the robust\n"
+        "Eq. 5.3 (feature depths on the room box / SfM depths), and registers every other frame\n"
+        "by PnP against the model's points (tracked into it from the neighbouring keyframes).\n"
+        "--method full runs COLMAP on every frame instead. Writes the camera-path YAML (one entry\n"
+        "per frame, source sfm, pnp or interpolated), a report (<out>_report.yml: stage times,\n"
+        "counts, errors) and a COLMAP text model (<out>_colmap/). The work folder (default\n"
+        "<out>_work/ beside the output) keeps COLMAP's run: a second run resumes.");
     app.add_option("--video", o->video, "Input video file or image folder")->required();
     app.add_option("--scene", o->scene,
                    "Scene file of frame 0 (from vbme calibrate): camera and room")
         ->required();
     app.add_option("--out", o->out, "Output camera-path file (YAML)")->required();
     app.add_option("--work", o->work, "Work folder (frames, COLMAP database and log)");
-    app.add_option("--stride", o->stride, "Reconstruct every k-th frame, interpolate the rest")
+    app.add_option("--method", o->method,
+                   "keyframes: COLMAP on keyframes chosen by tracked-corner motion and overlap, "
+                   "every other frame registered by PnP; full: COLMAP on every (stride-th) frame")
+        ->check(CLI::IsMember({"keyframes", "full"}))
+        ->capture_default_str();
+    app.add_option("--stride", o->stride,
+                   "keyframes: a keyframe every k-th frame instead of choosing them (the rest by "
+                   "PnP); full: reconstruct every k-th frame, interpolate the rest")
         ->check(CLI::Range(1, 1000))
         ->capture_default_str();
     app.add_option("--overlay", o->overlay,
@@ -133,9 +172,25 @@ void setupTrackCamera(CLI::App& app) {
     app.add_option("--threads", o->threads, "Threads for feature extraction and matching")
         ->check(CLI::Range(1, 256))
         ->capture_default_str();
-    app.add_option("--overlap", o->overlap, "Sequential matching: neighbours matched per frame")
-        ->check(CLI::Range(1, 1000))
+    app.add_option("--overlap", o->overlap,
+                   "Sequential matching: neighbours matched per image (default 6 keyframes, 10 "
+                   "full)")
+        ->check(CLI::Range(1, 1000));
+    app.add_option("--features", o->features,
+                   "SIFT features per image (default 2048 keyframes, 4096 full)")
+        ->check(CLI::Range(64, 100000));
+    app.add_option("--max-gap", o->max_gap, "keyframes: at most this many frames between keyframes")
+        ->check(CLI::Range(1, 10000))
         ->capture_default_str();
+    app.add_option("--keyframe-motion", o->keyframe_motion,
+                   "keyframes: new keyframe when tracked corners moved this fraction of the width")
+        ->check(CLI::Range(0.001, 1.0))
+        ->capture_default_str();
+    app.add_option("--min-overlap", o->min_overlap,
+                   "keyframes: new keyframe when fewer of the last keyframe's corners survive")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    app.add_flag("--no-pnp", o->no_pnp, "keyframes: interpolate the other frames instead of PnP");
     app.add_option("--seed", o->seed, "COLMAP random seed")->capture_default_str();
     app.add_option("--vocab-tree", o->vocab_tree, "Vocabulary-tree file: enables loop detection");
     app.add_option("--smooth", o->smooth,

@@ -76,7 +76,8 @@ struct Smooth {
 
 RefineSummary refineTrack(const ColmapModel& model, const std::vector<std::string>& names,
                           const Scene& frame0, const Matx33d& M, const Vec3d& c, double s,
-                          double plane_tolerance, double smooth_sigma, CameraPath& path) {
+                          double plane_tolerance, double smooth_sigma, CameraPath& path,
+                          std::map<long long, Vec3d>* world_points) {
     RefineSummary sum;
     const Matx33d K = frame0.camera.K;
     // Poses of the registered frames (angle-axis, t).
@@ -175,6 +176,9 @@ RefineSummary refineTrack(const ColmapModel& model, const std::vector<std::strin
         }
     }
     sum.rms_after = std::sqrt(se / sum.observations);
+    if (world_points)
+        for (const auto& [id, X] : points)
+            if (problem.HasParameterBlock(X.data())) (*world_points)[id] = Vec3d(X[0], X[1], X[2]);
     for (size_t i = 0; i < names.size(); ++i) {
         if (!registered[i]) continue;
         Mat R;

@@ -3,6 +3,7 @@
 #ifndef VBME_CALIB_CAMERA_REFINE_HPP
 #define VBME_CALIB_CAMERA_REFINE_HPP
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -24,10 +25,24 @@ the annotated camera) with the model's points moved into the world frame by the 
 tied to that face (σ = 1 cm), which fixes the scale and the floor height from every frame, not
 from frame 0 alone. With @p smooth_sigma > 0, a prior on the second difference of camera centres
 and rotations (σ = 2 mm and 0.0005 rad divided by smooth_sigma², smooth_sigma in frames) damps
-jitter. */
+jitter. @p world_points, if given, receives the refined points in the world frame by
+POINT3D_ID (those observed by a registered frame). */
 RefineSummary refineTrack(const ColmapModel& model, const std::vector<std::string>& names,
                           const Scene& frame0, const Matx33d& M, const Vec3d& c, double s,
-                          double plane_tolerance, double smooth_sigma, CameraPath& path);
+                          double plane_tolerance, double smooth_sigma, CameraPath& path,
+                          std::map<long long, Vec3d>* world_points = nullptr);
+
+/** Gives every frame without @p have a pose interpolated between the nearest frames with
+one (slerp of rotations, linear centres), or held at the nearest one beyond the ends, marked
+CameraPath::INTERPOLATED. @return how many frames were interpolated. */
+int interpolateMissing(CameraPath& path, const std::vector<bool>& have);
+
+/** alignToRoom() that also returns the model's points in the world frame (refined when
+options.refine), by POINT3D_ID. */
+CameraPath alignToRoomWithPoints(const ColmapModel& model, const std::vector<std::string>& names,
+                                 const Scene& frame0, const CameraTrackingOptions& options,
+                                 CameraTrackingReport* report,
+                                 std::map<long long, Vec3d>* world_points);
 
 }  // namespace detail
 }  // namespace vbme

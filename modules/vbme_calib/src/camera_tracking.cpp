@@ -103,9 +103,48 @@ Vec4d slerp(Vec4d a, Vec4d b, double t) {
 
 }  // namespace
 
+int detail::interpolateMissing(CameraPath& path, const std::vector<bool>& have) {
+    const size_t n = path.frames.size();
+    CV_Assert(have.size() == n);
+    if (std::find(have.begin(), have.end(), true) == have.end()) return 0;
+    int interpolated = 0;
+    for (size_t i = 0; i < n; ++i) {
+        if (have[i]) continue;
+        int a = (int)i - 1, b = (int)i + 1;
+        while (a >= 0 && !have[a])
+            --a;
+        while (b < (int)n && !have[b])
+            ++b;
+        CameraPath::Frame& f = path.frames[i];
+        f.source = CameraPath::INTERPOLATED;
+        ++interpolated;
+        if (a < 0 || b >= (int)n) {
+            const CameraPath::Frame& nb = path.frames[a < 0 ? b : a];
+            f.R = nb.R;
+            f.t = nb.t;
+            continue;
+        }
+        const double t = double((int)i - a) / (b - a);
+        const CameraPath::Frame &fa = path.frames[a], &fb = path.frames[b];
+        const Vec3d ca = -(fa.R.t() * fa.t), cb = -(fb.R.t() * fb.t);
+        f.R = rotationFromQuaternion(
+            slerp(quaternionFromRotation(fa.R), quaternionFromRotation(fb.R), t));
+        f.t = -(f.R * (ca + (cb - ca) * t));
+    }
+    return interpolated;
+}
+
 CameraPath alignToRoom(const ColmapModel& model, const std::vector<std::string>& names,
                        const Scene& frame0, const CameraTrackingOptions& opt,
                        CameraTrackingReport* report) {
+    return detail::alignToRoomWithPoints(model, names, frame0, opt, report, nullptr);
+}
+
+CameraPath detail::alignToRoomWithPoints(const ColmapModel& model,
+                                         const std::vector<std::string>& names, const Scene& frame0,
+                                         const CameraTrackingOptions& opt,
+                                         CameraTrackingReport* report,
+                                         std::map<long long, Vec3d>* world_points) {
     if (names.empty()) CV_Error(Error::StsBadArg, "alignToRoom: no frames");
     if (!frame0.has_room)
         CV_Error(Error::StsBadArg,
@@ -164,33 +203,12 @@ CameraPath alignToRoom(const ColmapModel& model, const std::vector<std::string>&
     detail::RefineSummary refined;
     if (opt.refine)
         refined = detail::refineTrack(model, names, frame0, M, c, s, opt.plane_tolerance,
-                                      opt.smooth_sigma, path);
-    // Frames the model lacks: interpolate between registered neighbours, hold
-    // beyond the ends.
-    int interpolated = 0;
-    for (size_t i = 0; i < names.size(); ++i) {
-        if (have[i]) continue;
-        int a = (int)i - 1, b = (int)i + 1;
-        while (a >= 0 && !have[a])
-            --a;
-        while (b < (int)names.size() && !have[b])
-            ++b;
-        CameraPath::Frame& f = path.frames[i];
-        f.source = CameraPath::INTERPOLATED;
-        ++interpolated;
-        if (a < 0 || b >= (int)names.size()) {
-            const CameraPath::Frame& n = path.frames[a < 0 ? b : a];
-            f.R = n.R;
-            f.t = n.t;
-            continue;
-        }
-        const double t = double((int)i - a) / (b - a);
-        const CameraPath::Frame &fa = path.frames[a], &fb = path.frames[b];
-        const Vec3d ca = -(fa.R.t() * fa.t), cb = -(fb.R.t() * fb.t);
-        f.R = rotationFromQuaternion(
-            slerp(quaternionFromRotation(fa.R), quaternionFromRotation(fb.R), t));
-        f.t = -(f.R * (ca + (cb - ca) * t));
-    }
+                                      opt.smooth_sigma, path, world_points);
+    else if (world_points)
+        for (const auto& kv : model.points)
+            (*world_points)[kv.first] = M.t() * (s * kv.second.xyz - c);
+    // Frames the model lacks: interpolate between registered neighbours, hold beyond the ends.
+    const int interpolated = detail::interpolateMissing(path, have);
     if (report) {
         report->frames = (int)names.size();
         report->registered = registered;
@@ -249,6 +267,41 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
                             CameraTrackingReport* report) {
     if (opt.stride < 1) CV_Error(Error::StsBadArg, "stride must be at least 1");
     const auto t0 = std::chrono::steady_clock::now();
+    if (opt.method == CameraTrackingOptions::KEYFRAMES) {
+        // Grey frames in memory (COLMAP's SIFT sees grey images too).
+        VideoReader reader(video);
+        if (reader.frameSize() != frame0.image_size)
+            CV_Error(Error::StsBadArg, format("the annotation is for %dx%d images but the video's "
+                                              "frames are %dx%d",
+                                              frame0.image_size.width, frame0.image_size.height,
+                                              reader.frameSize().width, reader.frameSize().height));
+        std::vector<Mat> gray;
+        {
+            Progress progress("decode frames", std::max(0, reader.frameCount()));
+            Mat f;
+            while (reader.read(f)) {
+                Mat g;
+                if (f.channels() == 1)
+                    g = f.clone();
+                else
+                    cvtColor(f, g, f.channels() == 4 ? COLOR_BGRA2GRAY : COLOR_BGR2GRAY);
+                if (g.depth() != CV_8U)
+                    g.convertTo(g, CV_8U, g.depth() == CV_16U ? 1.0 / 257 : 1.0);
+                gray.push_back(g);
+                progress.tick();
+            }
+            progress.finish();
+        }
+        if (gray.empty()) CV_Error(Error::StsError, "'" + video + "' holds no frame");
+        const double decode =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        CameraTrackingReport r;
+        CameraPath path = trackCameraKeyframes(gray, frame0, work_dir, opt, &r);
+        r.stage_seconds.insert(r.stage_seconds.begin(), {"decode", decode});
+        r.seconds += decode;
+        if (report) *report = r;
+        return path;
+    }
     const fs::path work(work_dir), frames = work / "frames";
     std::error_code ec;
     fs::create_directories(frames, ec);

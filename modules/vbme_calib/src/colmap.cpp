@@ -3,6 +3,7 @@
 #include "opencv2/vbme/calib/colmap.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -238,7 +239,15 @@ void runStep(const ColmapOptions& o, const std::string& step, const std::string&
 }  // namespace
 
 std::vector<ColmapModel> runColmapSfM(const std::string& image_dir, const std::string& work_dir,
-                                      const Matx33d& K, Size size, const ColmapOptions& o) {
+                                      const Matx33d& K, Size size, const ColmapOptions& o,
+                                      std::vector<std::pair<std::string, double>>* step_seconds) {
+    auto timed = [&](const std::string& step, const std::string& args, const std::string& log) {
+        const auto t0 = std::chrono::steady_clock::now();
+        runStep(o, step, args, log);
+        if (step_seconds)
+            step_seconds->emplace_back(
+                step, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    };
     std::error_code ec;
     if (!fs::is_directory(image_dir, ec))
         CV_Error(Error::StsError, "'" + image_dir + "' is not a folder of images");
@@ -256,15 +265,14 @@ std::vector<ColmapModel> runColmapSfM(const std::string& image_dir, const std::s
     const std::string params =
         format("%.10g,%.10g,%.10g,%.10g", K(0, 0), K(1, 1), K(0, 2) + 0.5, K(1, 2) + 0.5);
     const std::string common = "--random_seed " + std::to_string(o.random_seed);
-    runStep(o, "feature_extractor",
-            common + " --database_path " + shellQuote(db) + " --image_path " +
-                shellQuote(image_dir) +
-                " --ImageReader.camera_model PINHOLE --ImageReader.single_camera 1 "
-                "--ImageReader.camera_params " +
-                params + " --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads " +
-                std::to_string(o.threads) + " --SiftExtraction.max_num_features " +
-                std::to_string(o.max_num_features),
-            log);
+    timed("feature_extractor",
+          common + " --database_path " + shellQuote(db) + " --image_path " + shellQuote(image_dir) +
+              " --ImageReader.camera_model PINHOLE --ImageReader.single_camera 1 "
+              "--ImageReader.camera_params " +
+              params + " --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads " +
+              std::to_string(o.threads) + " --SiftExtraction.max_num_features " +
+              std::to_string(o.max_num_features),
+          log);
     std::string match = common + " --database_path " + shellQuote(db) +
                         " --SiftMatching.use_gpu 0" + " --SiftMatching.num_threads " +
                         std::to_string(o.threads) + " --SequentialMatching.overlap " +
@@ -274,15 +282,17 @@ std::vector<ColmapModel> runColmapSfM(const std::string& image_dir, const std::s
             " --SequentialMatching.loop_detection 1 "
             "--SequentialMatching.vocab_tree_path " +
             shellQuote(o.vocab_tree);
-    runStep(o, "sequential_matcher", match, log);
-    runStep(o, "mapper",
-            common + " --database_path " + shellQuote(db) + " --image_path " +
-                shellQuote(image_dir) + " --output_path " + shellQuote(sparse.string()) +
-                " --Mapper.num_threads " + std::to_string(o.mapper_threads) +
-                " --Mapper.ba_refine_focal_length 0 "
-                "--Mapper.ba_refine_principal_point 0"
-                " --Mapper.ba_refine_extra_params 0",
-            log);
+    timed("sequential_matcher", match, log);
+    timed("mapper",
+          common + " --database_path " + shellQuote(db) + " --image_path " + shellQuote(image_dir) +
+              " --output_path " + shellQuote(sparse.string()) + " --Mapper.num_threads " +
+              std::to_string(o.mapper_threads) +
+              " --Mapper.ba_refine_focal_length 0 "
+              "--Mapper.ba_refine_principal_point 0"
+              " --Mapper.ba_refine_extra_params 0 --Mapper.min_model_size " +
+              std::to_string(o.min_model_size) + " --Mapper.abs_pose_min_num_inliers " +
+              std::to_string(o.abs_pose_min_num_inliers),
+          log);
     std::vector<ColmapModel> models;
     for (const auto& e : fs::directory_iterator(sparse, ec)) {
         if (!e.is_directory()) continue;

@@ -48,11 +48,38 @@ CV_EXPORTS ScaleEstimate scaleRobust(const std::vector<double>& box_depths,
                                      const std::vector<double>& errors = std::vector<double>(),
                                      double tolerance = 0.05);
 
+/** @brief How trackCameraVideo() chooses the frames COLMAP reconstructs and registers the
+others. */
+struct CV_EXPORTS KeyframeOptions {
+    int features = 500;        //!< KLT corners tracked through the video to choose keyframes
+    double max_motion = 0.08;  //!< new keyframe when the median image motion of the tracked
+                               //!< corners since the last keyframe exceeds this fraction of the
+                               //!< image width (parallax for translation, overlap loss for pans)
+    double min_overlap = 0.6;  //!< new keyframe when fewer than this fraction of the last
+                               //!< keyframe's corners are still tracked
+    int max_gap = 15;          //!< never more than this many frames between keyframes
+    int stride = 0;            //!< > 0: keyframes every stride-th frame instead (no selection)
+    int sift_features = 2048;  //!< COLMAP SIFT features per keyframe (replaces
+                               //!< ColmapOptions::max_num_features for keyframe runs)
+    int overlap = 6;           //!< COLMAP sequential matching overlap between keyframes
+};
+
 /** @brief Options of alignment and tracking. */
 struct CV_EXPORTS CameraTrackingOptions {
+    /** @brief Which frames structure-from-motion sees. */
+    enum Method {
+        KEYFRAMES,  //!< COLMAP on keyframes only, every other frame registered by PnP
+        FULL        //!< COLMAP on every stride-th frame, the others interpolated
+    };
+    Method method = KEYFRAMES;      //!< what trackCameraVideo() does
+    KeyframeOptions keyframes;      //!< keyframe choice and COLMAP settings of the KEYFRAMES method
+    bool pnp = true;                //!< KEYFRAMES: register non-keyframes by PnP (else interpolate)
+    int pnp_min_inliers = 25;       //!< a PnP pose needs at least this many inlier points...
+    double pnp_max_rms = 1.5;       //!< ...and an inlier reprojection RMS (pixels) at most this
     bool robust_scale = true;       //!< robust Eq. 5.3 (else the thesis's mean)
     double scale_tolerance = 0.05;  //!< relative tolerance of the robust scale's inliers
-    int stride = 1;                 //!< reconstruct every k-th frame (the rest interpolated)
+    int stride = 1;  //!< FULL: reconstruct every k-th frame (the rest interpolated); KEYFRAMES:
+                     //!< when > 1, keyframes every k-th frame (sets keyframes.stride)
     bool refine =
         true;  //!< Ceres bundle adjustment in the room frame, points tied to the box faces
     double plane_tolerance = 0.05;  //!< points this close (m) to a face are tied to it
@@ -71,6 +98,13 @@ struct CV_EXPORTS CameraTrackingReport {
     int plane_points = 0;         //!< points tied to a face of the box in the refinement
     ScaleEstimate scale;          //!< the scale of Eq. 5.3 (robust or mean)
     double seconds = 0;           //!< wall time
+    int keyframes = 0;            //!< KEYFRAMES: frames given to COLMAP
+    int pnp = 0;                  //!< frames registered by PnP
+    double pnp_rms = 0;           //!< RMS reprojection error of the PnP frames' inliers (pixels)
+    double pnp_inliers = 0;       //!< mean inlier points per PnP frame
+    /** Wall time of each stage (name, seconds) in order, e.g. decode, keyframes, COLMAP's
+    feature_extractor, sequential_matcher, mapper, align, pnp. */
+    std::vector<std::pair<std::string, double>> stage_seconds;
 };
 
 /** @brief Aligns a COLMAP model to the annotated room: rotates and translates
@@ -100,16 +134,42 @@ CV_EXPORTS CameraPath trackCameraFrames(
     const std::string& work_dir, const CameraTrackingOptions& options = CameraTrackingOptions(),
     CameraTrackingReport* report = nullptr);
 
-/** @brief Camera tracking of a video file (or image folder): frames are
-extracted to `work_dir/frames` (every @p options.stride-th one; the others are
-interpolated), COLMAP runs in `work_dir`, and the model is aligned to the
-annotated room. Resumable: extracted frames and a finished COLMAP run found in
+/** @brief Camera tracking of a video file (or image folder). With options.method KEYFRAMES
+(the default) the frames are decoded to grey in memory and trackCameraKeyframes() runs. With
+FULL, frames are extracted to `work_dir/frames` (every @p options.stride-th one; the others are
+interpolated), COLMAP runs in `work_dir`, and the model is aligned to the annotated room. Resumable:
+extracted frames and a finished COLMAP run found in
 @p work_dir (marked complete) are reused, not redone. Throws cv::Exception if
 the video's frame size differs from the scene's image size. */
 CV_EXPORTS CameraPath
 trackCameraVideo(const std::string& video, const Scene& frame0, const std::string& work_dir,
                  const CameraTrackingOptions& options = CameraTrackingOptions(),
                  CameraTrackingReport* report = nullptr);
+
+/** @brief Chooses keyframes of a video by tracking corners (pyramidal Lucas-Kanade
+@cite Bouguet2001, forward-backward checked) from frame to frame: a frame becomes a keyframe when
+the median motion of the last keyframe's corners exceeds options.max_motion × width, when fewer
+than options.min_overlap of them survive, or options.max_gap frames after the last keyframe.
+Frame 0 and the last frame are keyframes. With options.stride > 0: every stride-th frame.
+@param gray the video's frames, 8-bit single channel, all of one size.
+@return keyframe indices, increasing. */
+CV_EXPORTS std::vector<int> selectKeyframes(const std::vector<Mat>& gray,
+                                            const KeyframeOptions& options = KeyframeOptions());
+
+/** @brief Camera tracking of a video held in memory by keyframes: selectKeyframes(), COLMAP
+(runColmapSfM) on the keyframes alone (written to `work_dir/keyframes`), alignToRoom() of the
+model, then every frame COLMAP did not register gets its pose by PnP: the 2D features of the
+nearest registered frame on each side that have a 3D point are tracked into it (Lucas-Kanade,
+frame to frame, forward-backward checked), its pose solved by RANSAC PnP and refined by
+Levenberg-Marquardt on the inliers with the points fixed (solvePnPRefineLM), in the room frame
+(CameraPath::PNP). A frame with too few inliers or too large an error keeps the interpolated
+pose (CameraPath::INTERPOLATED). Resumable: a finished COLMAP run on the same keyframes found in
+@p work_dir is reused.
+@param gray the video's frames, 8-bit single channel, of frame0.image_size. */
+CV_EXPORTS CameraPath
+trackCameraKeyframes(const std::vector<Mat>& gray, const Scene& frame0, const std::string& work_dir,
+                     const CameraTrackingOptions& options = CameraTrackingOptions(),
+                     CameraTrackingReport* report = nullptr);
 
 /** @brief Draws the room box's edges as @p camera sees them (clipped to the
 part in front of the camera), with a caption; the quickest check of a camera

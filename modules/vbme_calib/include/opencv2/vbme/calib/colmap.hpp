@@ -83,7 +83,9 @@ struct CV_EXPORTS ColmapOptions {
     int overlap = 10;                   //!< sequential matcher: neighbours matched per frame
     std::string vocab_tree;             //!< vocabulary-tree file: enables loop detection when set
     int max_num_features = 4096;        //!< SIFT features per image
-    int timeout = 0;  //!< seconds a step may run before it is stopped as hung (0: no limit)
+    int timeout = 0;          //!< seconds a step may run before it is stopped as hung (0: no limit)
+    int min_model_size = 10;  //!< mapper: smaller models are discarded
+    int abs_pose_min_num_inliers = 30;  //!< mapper: 2D-3D inliers needed to register an image
 };
 
 /** @brief Runs COLMAP's sparse reconstruction on the images of @p image_dir
@@ -93,13 +95,14 @@ SIFT), sequential_matcher (the images' names must sort in time), mapper
 (database, models, `colmap.log`).
 @param K intrinsics in the vbme convention (converted to COLMAP's +0.5 here).
 @param size image size.
+@param step_seconds if given, receives the wall time of each COLMAP step (name, seconds).
 @return the reconstructed models, largest first (several when COLMAP splits the
 video). Throws cv::Exception in plain words when the program is missing or a
 step fails (naming the log). */
-CV_EXPORTS std::vector<ColmapModel> runColmapSfM(const std::string& image_dir,
-                                                 const std::string& work_dir, const Matx33d& K,
-                                                 Size size,
-                                                 const ColmapOptions& options = ColmapOptions());
+CV_EXPORTS std::vector<ColmapModel> runColmapSfM(
+    const std::string& image_dir, const std::string& work_dir, const Matx33d& K, Size size,
+    const ColmapOptions& options = ColmapOptions(),
+    std::vector<std::pair<std::string, double>>* step_seconds = nullptr);
 /** @} */
 
 //! @}

@@ -1,0 +1,354 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Camera tracking by keyframes: corners tracked through the video choose the frames COLMAP
+// reconstructs; every other frame is registered by PnP against the model's points.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include "camera_refine.hpp"
+#include "opencv2/vbme/calib/camera_tracking.hpp"
+
+namespace fs = std::filesystem;
+
+namespace cv {
+namespace vbme {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+const Size kWin(21, 21);
+const int kLevels = 4;
+
+// Lucas-Kanade from @p a to @p b, kept where the backward track returns within 0.5 px. @p keep
+// receives, per input point, whether it was tracked.
+void trackLK(const Mat& a, const Mat& b, const std::vector<Point2f>& pa, std::vector<Point2f>& pb,
+             std::vector<uchar>& keep) {
+    keep.assign(pa.size(), 0);
+    pb.clear();
+    if (pa.empty()) return;
+    const TermCriteria crit(TermCriteria::COUNT | TermCriteria::EPS, 30, 0.01);
+    std::vector<uchar> st1, st2;
+    std::vector<float> err;
+    std::vector<Point2f> back;
+    calcOpticalFlowPyrLK(a, b, pa, pb, st1, err, kWin, kLevels, crit);
+    calcOpticalFlowPyrLK(b, a, pb, back, st2, err, kWin, kLevels, crit);
+    const Rect2f inside(0, 0, (float)a.cols - 1, (float)a.rows - 1);
+    for (size_t i = 0; i < pa.size(); ++i) {
+        const Point2f d = back[i] - pa[i];
+        keep[i] = st1[i] && st2[i] && d.dot(d) < 0.25f && inside.contains(pb[i]);
+    }
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+}
+
+}  // namespace
+
+std::vector<int> selectKeyframes(const std::vector<Mat>& gray, const KeyframeOptions& o) {
+    const int n = (int)gray.size();
+    std::vector<int> keys;
+    if (n == 0) return keys;
+    if (o.stride > 0) {
+        for (int i = 0; i < n; i += o.stride)
+            keys.push_back(i);
+        return keys;
+    }
+    CV_Assert(o.features > 0 && o.max_gap >= 1);
+    for (const Mat& g : gray)
+        CV_Assert(g.type() == CV_8UC1 && g.size() == gray[0].size());
+    const double max_motion = o.max_motion * gray[0].cols;
+    const int min_dist = std::max(5, gray[0].cols / 64);
+    std::vector<Point2f> pts, at_key;  // current positions; positions at the last keyframe
+    std::vector<uchar> from_key;       // tracked since the last keyframe
+    auto replenish = [&](const Mat& g) {
+        if ((int)pts.size() >= o.features * 8 / 10) return;
+        Mat mask(g.size(), CV_8U, Scalar(255));
+        for (const Point2f& p : pts)
+            circle(mask, p, min_dist, Scalar(0), -1);
+        std::vector<Point2f> add;
+        goodFeaturesToTrack(g, add, o.features - (int)pts.size(), 0.01, min_dist, mask);
+        for (const Point2f& p : add) {
+            pts.push_back(p);
+            at_key.push_back(p);
+            from_key.push_back(0);
+        }
+    };
+    auto makeKey = [&](int i) {
+        keys.push_back(i);
+        at_key = pts;
+        from_key.assign(pts.size(), 1);
+    };
+    replenish(gray[0]);
+    makeKey(0);
+    int key_count = (int)pts.size();
+    for (int i = 1; i < n; ++i) {
+        std::vector<Point2f> next;
+        std::vector<uchar> ok;
+        trackLK(gray[i - 1], gray[i], pts, next, ok);
+        size_t m = 0;
+        for (size_t k = 0; k < pts.size(); ++k)
+            if (ok[k]) pts[m] = next[k], at_key[m] = at_key[k], from_key[m] = from_key[k], ++m;
+        pts.resize(m);
+        at_key.resize(m);
+        from_key.resize(m);
+        std::vector<double> motion;
+        for (size_t k = 0; k < m; ++k)
+            if (from_key[k]) motion.push_back(norm(pts[k] - at_key[k]));
+        const bool key = i == n - 1 || i - keys.back() >= o.max_gap ||
+                         (double)motion.size() < o.min_overlap * key_count ||
+                         median(motion) > max_motion;
+        replenish(gray[i]);
+        if (key) {
+            makeKey(i);
+            key_count = (int)pts.size();
+        }
+    }
+    return keys;
+}
+
+namespace {
+
+// The 2D features (vbme pixel convention) of a registered frame that have a world point.
+struct Seeds {
+    std::vector<Point2f> px;
+    std::vector<Point3f> X;
+};
+
+// At most kSeedsPerCell per cell of a kGrid x kGrid grid over the image, so that the points are
+// spread and their count (the cost of tracking them) bounded.
+const int kGrid = 16, kSeedsPerCell = 2;
+
+Seeds seedsOf(const ColmapImage& im, const std::map<long long, Vec3d>& world, Size size) {
+    Seeds s;
+    std::vector<int> used(kGrid * kGrid, 0);
+    for (size_t k = 0; k < im.xys.size(); ++k) {
+        auto it = world.find(im.point3d_ids[k]);
+        if (im.point3d_ids[k] < 0 || it == world.end()) continue;
+        const Point2f p((float)(im.xys[k].x - 0.5), (float)(im.xys[k].y - 0.5));
+        const int gx = std::min(kGrid - 1, std::max(0, (int)(p.x * kGrid / size.width))),
+                  gy = std::min(kGrid - 1, std::max(0, (int)(p.y * kGrid / size.height)));
+        if (used[gy * kGrid + gx]++ >= kSeedsPerCell) continue;
+        s.px.push_back(p);
+        s.X.emplace_back((float)it->second[0], (float)it->second[1], (float)it->second[2]);
+    }
+    return s;
+}
+
+struct PnPResult {
+    bool ok = false;
+    Matx33d R;
+    Vec3d t;
+    int inliers = 0;
+    double rms = 0;
+};
+
+// RANSAC PnP, then Levenberg-Marquardt on the inliers (points fixed), inliers re-collected
+// once at the refined pose.
+PnPResult solvePose(const std::vector<Point3f>& X, const std::vector<Point2f>& x, const Matx33d& K,
+                    const CameraTrackingOptions& opt) {
+    PnPResult r;
+    if ((int)X.size() < std::max(6, opt.pnp_min_inliers)) return r;
+    Vec3d rvec, tvec;
+    std::vector<int> inl;
+    if (!solvePnPRansac(X, x, K, noArray(), rvec, tvec, false, 200, 2.0f, 0.999, inl,
+                        SOLVEPNP_EPNP))
+        return r;
+    for (int pass = 0; pass < 2; ++pass) {
+        if ((int)inl.size() < opt.pnp_min_inliers) return r;
+        std::vector<Point3f> Xi;
+        std::vector<Point2f> xi;
+        for (int k : inl)
+            Xi.push_back(X[k]), xi.push_back(x[k]);
+        solvePnPRefineLM(Xi, xi, K, noArray(), rvec, tvec);
+        std::vector<Point2f> proj;
+        projectPoints(X, rvec, tvec, K, noArray(), proj);
+        inl.clear();
+        double se = 0;
+        for (size_t k = 0; k < X.size(); ++k) {
+            const Point2f d = proj[k] - x[k];
+            const double e2 = d.dot(d);
+            if (e2 < 1.5 * 1.5) inl.push_back((int)k), se += e2;
+        }
+        r.rms = inl.empty() ? 0 : std::sqrt(se / inl.size());
+    }
+    r.inliers = (int)inl.size();
+    Mat R;
+    Rodrigues(rvec, R);
+    r.R = Matx33d(R);
+    r.t = tvec;
+    r.ok = r.inliers >= opt.pnp_min_inliers && r.rms <= opt.pnp_max_rms;
+    return r;
+}
+
+std::string frameName(int i) {
+    return format("frame_%05d.png", i);
+}
+
+}  // namespace
+
+CameraPath trackCameraKeyframes(const std::vector<Mat>& gray, const Scene& frame0,
+                                const std::string& work_dir, const CameraTrackingOptions& opt,
+                                CameraTrackingReport* report) {
+    const auto t_start = Clock::now();
+    const int n = (int)gray.size();
+    if (n == 0) CV_Error(Error::StsBadArg, "trackCameraKeyframes: no frames");
+    for (int i = 0; i < n; ++i)
+        if (gray[i].type() != CV_8UC1 || gray[i].size() != frame0.image_size)
+            CV_Error(Error::StsBadArg,
+                     format("trackCameraKeyframes: frame %d is not an 8-bit grey image of the "
+                            "annotation's size %dx%d",
+                            i, frame0.image_size.width, frame0.image_size.height));
+    CameraTrackingReport rep;
+    KeyframeOptions ko = opt.keyframes;
+    if (opt.stride > 1) ko.stride = opt.stride;
+
+    // 1. Keyframes.
+    auto t0 = Clock::now();
+    const std::vector<int> keys = selectKeyframes(gray, ko);
+    rep.stage_seconds.emplace_back("keyframes", since(t0));
+    rep.keyframes = (int)keys.size();
+
+    // 2. COLMAP on the keyframes (resumable: the same keyframes with a finished run are reused).
+    const fs::path work(work_dir), kdir = work / "keyframes";
+    std::error_code ec;
+    fs::create_directories(work, ec);
+    if (ec) CV_Error(Error::StsError, "cannot create '" + work.string() + "': " + ec.message());
+    std::ostringstream key_list;
+    key_list << ko.sift_features << " " << ko.overlap << " " << opt.colmap.random_seed << " "
+             << opt.colmap.vocab_tree << ":";
+    for (int k : keys)
+        key_list << " " << k;
+    const fs::path done = work / "colmap_complete.txt";
+    std::vector<ColmapModel> models;
+    {
+        std::ifstream in(done.string());
+        std::string line;
+        if (std::getline(in, line) && line == key_list.str())
+            for (const auto& e : fs::directory_iterator(work / "sparse_txt", ec))
+                if (e.is_directory()) models.push_back(ColmapModel::readText(e.path().string()));
+    }
+    if (models.empty()) {
+        fs::remove(done, ec);
+        fs::remove_all(kdir, ec);
+        fs::create_directories(kdir, ec);
+        for (int k : keys)
+            imwriteAtomic((kdir / frameName(k)).string(), gray[k]);
+        std::printf("camera tracking: %zu keyframes of %d frames; running COLMAP (log: %s)\n",
+                    keys.size(), n, (work / "colmap.log").string().c_str());
+        std::fflush(stdout);
+        ColmapOptions co = opt.colmap;
+        co.max_num_features = ko.sift_features;
+        co.overlap = ko.overlap;
+        // Few images with fewer features: keep small models (the one holding frame 0 is used)
+        // and register keyframes seen through a fast pan on fewer points.
+        co.min_model_size = std::min(co.min_model_size, 3);
+        co.abs_pose_min_num_inliers = std::min(co.abs_pose_min_num_inliers, 15);
+        models = runColmapSfM(kdir.string(), work_dir, frame0.camera.K, frame0.image_size, co,
+                              &rep.stage_seconds);
+        std::ofstream(done.string()) << key_list.str() << "\n";
+    } else {
+        rep.stage_seconds.emplace_back("colmap (reused)", 0.0);
+    }
+    std::vector<std::string> names;
+    for (int i = 0; i < n; ++i)
+        names.push_back(frameName(i));
+    const ColmapModel* model = nullptr;
+    for (const auto& m : models)
+        if (!model && m.imageByName(names[0])) model = &m;
+    if (!model)
+        CV_Error(Error::StsError, "COLMAP did not register frame 0 in any of its " +
+                                      std::to_string(models.size()) + " model(s); see " +
+                                      (work / "colmap.log").string());
+
+    // 3. Alignment to the room (and refinement) of the keyframes.
+    t0 = Clock::now();
+    std::map<long long, Vec3d> world;
+    CameraPath path = detail::alignToRoomWithPoints(*model, names, frame0, opt, &rep, &world);
+    rep.models = (int)models.size();
+    rep.stage_seconds.emplace_back("align", since(t0));
+
+    // 4. PnP for every frame COLMAP did not register, from the nearest registered frame on each
+    // side.
+    t0 = Clock::now();
+    std::vector<int> anchors;
+    for (int i = 0; i < n; ++i)
+        if (path.frames[i].source == CameraPath::SFM) anchors.push_back(i);
+    // Correspondences gathered per frame.
+    std::vector<std::vector<Point3f>> cX(n);
+    std::vector<std::vector<Point2f>> cx(n);
+    auto propagate = [&](int a, int stop, int step) {
+        const ColmapImage* im = model->imageByName(names[a]);
+        if (!im) return;
+        Seeds s = seedsOf(*im, world, frame0.image_size);
+        for (int i = a + step; i != stop && !s.px.empty(); i += step) {
+            std::vector<Point2f> next;
+            std::vector<uchar> ok;
+            trackLK(gray[i - step], gray[i], s.px, next, ok);
+            size_t m = 0;
+            for (size_t k = 0; k < s.px.size(); ++k)
+                if (ok[k]) s.px[m] = next[k], s.X[m] = s.X[k], ++m;
+            s.px.resize(m);
+            s.X.resize(m);
+            cx[i].insert(cx[i].end(), s.px.begin(), s.px.end());
+            cX[i].insert(cX[i].end(), s.X.begin(), s.X.end());
+        }
+    };
+    if (opt.pnp && !anchors.empty()) {
+        for (size_t j = 0; j < anchors.size(); ++j) {
+            const int a = anchors[j];
+            const int prev = j ? anchors[j - 1] : -1;
+            const int next = j + 1 < anchors.size() ? anchors[j + 1] : n;
+            if (next - a > 1) propagate(a, next, +1);
+            if (a - prev > 1) propagate(a, prev, -1);
+        }
+    }
+    int pnp = 0;
+    double se = 0, inliers = 0;
+    std::vector<bool> have(n, false);
+    for (int i = 0; i < n; ++i) {
+        CameraPath::Frame& f = path.frames[i];
+        have[i] = f.source == CameraPath::SFM;
+        if (have[i]) continue;
+        const PnPResult r = opt.pnp ? solvePose(cX[i], cx[i], frame0.camera.K, opt) : PnPResult();
+        if (r.ok) {
+            f.R = r.R;
+            f.t = r.t;
+            f.source = CameraPath::PNP;
+            ++pnp;
+            se += r.rms * r.rms * r.inliers;
+            inliers += r.inliers;
+            have[i] = true;
+        }
+    }
+    // Frames PnP could not hold: interpolated between the nearest registered ones (SfM or PnP).
+    const int interpolated = detail::interpolateMissing(path, have);
+    rep.stage_seconds.emplace_back("pnp", since(t0));
+    rep.pnp = pnp;
+    rep.interpolated = interpolated;
+    rep.pnp_rms = inliers > 0 ? std::sqrt(se / inliers) : 0;
+    rep.pnp_inliers = pnp ? inliers / pnp : 0;
+    rep.seconds = since(t_start);
+    if (report) *report = rep;
+    return path;
+}
+
+}  // namespace vbme
+}  // namespace cv
