@@ -133,8 +133,11 @@ try {
   const type = async (sel, text) => { await page.click(sel, { clickCount: 3 }); clicks += 1; await page.type(sel, text); await key('Enter'); };
   await type('#camera_height', String(truth.camera_height));
   await page.click('details summary'); clicks += 1;
+  await page.waitForSelector('#faces input[data-face="front"]', { visible: true });
   await type('#faces input[data-face="right"]', String(truth.faces.right));
   await type('#faces input[data-face="front"]', String(truth.faces.front));
+  // The typed values are in the annotation before the clicks that need them.
+  await page.waitForFunction(() => { const a = window.vbmeAnnotate.state.ann; return a.camera_height > 0 && a.room.faces.right !== undefined && a.room.faces.front !== undefined; }, { timeout: 10000 });
 
   // Room points: floor edge of the back wall, the back|left corner, the back wall's ceiling edge.
   await key('f');

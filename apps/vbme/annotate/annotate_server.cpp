@@ -240,19 +240,6 @@ json boxEdges(const Camera& cam, const Room& room) {
     return edges;
 }
 
-std::string mimeOf(const std::string& name) {
-    auto ends = [&](const char* e) {
-        const std::string s(e);
-        return name.size() >= s.size() && name.compare(name.size() - s.size(), s.size(), s) == 0;
-    };
-    if (ends(".html")) return "text/html; charset=utf-8";
-    if (ends(".js")) return "text/javascript; charset=utf-8";
-    if (ends(".css")) return "text/css; charset=utf-8";
-    if (ends(".png")) return "image/png";
-    if (ends(".svg")) return "image/svg+xml";
-    return "application/octet-stream";
-}
-
 /** The object of the page's placement: `place` [u, v] (a frame pixel on the floor), `scale`
 and `rotate_deg` (about world z), as placeOnFloor() puts it for `vbme insert --place`. */
 SceneObject placedObject(const Scene& scene, const std::string& mesh, const json& placement) {
