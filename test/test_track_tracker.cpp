@@ -106,6 +106,9 @@ TEST(TrackTracker, SearchWindowRejectsSameHueDistractor) {
     ObjectTracker::Params with, without;
     with.colour_model = without.colour_model = TRACK_COLOUR_HS;
     with.evidence_confidence = without.evidence_confidence = false;
+    with.predict_motion = without.predict_motion = false;
+    with.edge_refine = without.edge_refine = false;
+    with.redetect = without.redetect = false;
     without.use_search_window = false;
     const ClipScore a = trackClip(clip, with), b = trackClip(clip, without);
     std::printf("same-hue distractor: window on  IoU %.3f conf %.3f found %d/%d\n", a.mean_iou,
@@ -167,6 +170,9 @@ TEST(TrackTracker, NeutralHighlightsKeepWhiteOutOfTheColourModel) {
     ObjectTracker::Params with, without;
     with.colour_model = without.colour_model = TRACK_COLOUR_HS;
     with.evidence_confidence = without.evidence_confidence = false;
+    with.predict_motion = without.predict_motion = false;
+    with.edge_refine = without.edge_refine = false;
+    with.redetect = without.redetect = false;
     without.neutral_highlights = false;
     with.use_search_window = without.use_search_window = false;  // look at the whole frame
     const ClipScore a = trackClip(clip, with), b = trackClip(clip, without);

@@ -4,8 +4,8 @@
 A pale, low-saturation ping-pong ball rolls away from a hand-held camera along a glossy,
 warm-brown table that mirrors it (perspective shrink > 3x), decelerating (motion blur while it
 is fast and near), passes behind a standing box (a stretch where it is hidden), while an orange
-bat (same hue as the ball) lies in the background. With --inseparable the ball is given the
-table's own material (the tracker must refuse it on frame 0).
+bat (same hue as the ball) lies in the background. With --inseparable the ball shows the
+table's own apparent colour and grain (the tracker must refuse it on frame 0).
 
 Writes into OUT:
   frame_0000.png ...   the rendered frames (8-bit sRGB)
@@ -41,7 +41,7 @@ ap.add_argument("--seed", type=int, default=3)
 ap.add_argument("--hide-from", type=int, default=14, help="first frame fully hidden")
 ap.add_argument("--hide-to", type=int, default=18, help="first frame visible again (approx.)")
 ap.add_argument("--only", default="", help="comma-separated frames to render (preview)")
-ap.add_argument("--inseparable", action="store_true", help="ball made of the table's material")
+ap.add_argument("--inseparable", action="store_true", help="ball showing the table's colour")
 args = ap.parse_args(argv)
 os.makedirs(args.out, exist_ok=True)
 rng = random.Random(args.seed)
@@ -105,7 +105,29 @@ def wood(name):
 
 
 table_mat = wood("table")
-ball_mat = table_mat if args.inseparable else principled("ball", (0.85, 0.62, 0.42), 0.35)[0]
+
+
+def table_coloured(name):
+    """A ball that shows the table's own apparent colour (sRGB ~ (150, 110, 87), measured on the
+    rendered table around the ball) with the same kind of grain, whatever the light."""
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    nt = m.node_tree
+    nt.nodes.remove(nt.nodes["Principled BSDF"])
+    em = nt.nodes.new("ShaderNodeEmission")
+    tex = nt.nodes.new("ShaderNodeTexNoise")
+    tex.inputs["Scale"].default_value = 40.0
+    ramp = nt.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].color = (0.26, 0.13, 0.08, 1)
+    ramp.color_ramp.elements[1].color = (0.35, 0.18, 0.11, 1)
+    nt.links.new(tex.outputs["Fac"], ramp.inputs["Fac"])
+    nt.links.new(ramp.outputs["Color"], em.inputs["Color"])
+    nt.links.new(em.outputs["Emission"], nt.nodes["Material Output"].inputs["Surface"])
+    return m
+
+
+ball_mat = (table_coloured("ball") if args.inseparable else
+            principled("ball", (0.85, 0.62, 0.42), 0.35)[0])
 bat_mat = principled("bat", (0.8, 0.22, 0.03), 0.5)[0]
 box_mat = principled("box", (0.12, 0.18, 0.30), 0.6)[0]
 wall_mat = principled("wall", (0.55, 0.50, 0.44), 0.9)[0]

@@ -56,6 +56,7 @@ void ObjectTracker::Params::read(const FileNode& fn) {
     rd("min_step", min_step);
     rd("colour_model", colour_model);
     rd("min_init_iou", min_init_iou);
+    rd("max_init_overlap", max_init_overlap);
     rd("predict_motion", predict_motion);
     rd("max_radius_change", max_radius_change);
     rd("evidence_confidence", evidence_confidence);
@@ -92,6 +93,8 @@ void ObjectTracker::Params::validate() const {
         CV_Error(Error::StsBadArg, "colour_model: expected 0..6 (TrackColourModel)");
     if (!(min_init_iou >= 0 && min_init_iou <= 1))
         CV_Error(Error::StsBadArg, "min_init_iou: expected [0, 1]");
+    if (!(max_init_overlap >= 0 && max_init_overlap <= 1))
+        CV_Error(Error::StsBadArg, "max_init_overlap: expected [0, 1]");
     if (!(max_radius_change >= 0 && max_radius_change < 1))
         CV_Error(Error::StsBadArg, "max_radius_change: expected [0, 1)");
     if (!(redetect_threshold >= 0 && redetect_threshold <= 1))
@@ -128,10 +131,10 @@ void ObjectTracker::Params::write(FileStorage& fs) const {
        << highlight_min_value << "highlight_max_saturation" << highlight_max_saturation;
     fs << "lost_threshold" << lost_threshold << "model_update_rate" << model_update_rate
        << "min_update_confidence" << min_update_confidence << "min_step" << min_step;
-    fs << "colour_model" << colour_model << "min_init_iou" << min_init_iou << "predict_motion"
-       << (int)predict_motion << "max_radius_change" << max_radius_change << "evidence_confidence"
-       << (int)evidence_confidence << "redetect" << (int)redetect << "redetect_threshold"
-       << redetect_threshold;
+    fs << "colour_model" << colour_model << "min_init_iou" << min_init_iou << "max_init_overlap"
+       << max_init_overlap << "predict_motion" << (int)predict_motion << "max_radius_change"
+       << max_radius_change << "evidence_confidence" << (int)evidence_confidence << "redetect"
+       << (int)redetect << "redetect_threshold" << redetect_threshold;
 }
 
 ObjectTracker::~ObjectTracker() = default;
@@ -345,10 +348,18 @@ public:
             const double bc = c == TRACK_COLOUR_HS ? -1 : bhattacharyya(hfg_, hbg_);
             report += format("%s%s: IoU %.3f", report.empty() ? "" : ", ", modelName(c), iou);
             if (bc >= 0) report += format(" (Bhattacharyya overlap %.3f)", bc);
-            if (iou > best_iou + 0.01) {
+            // A model whose object and background histograms overlap this much does not
+            // separate them, whatever frame 0's segmentation happens to show.
+            const bool separates = bc < 0 || bc <= p_.max_init_overlap;
+            if (!separates) report += " (overlap too high)";
+            if (separates && iou > best_iou + 0.01) {
                 best_iou = iou;
                 best = c;
             }
+        }
+        if (best < 0) {
+            best = cands.front();
+            best_iou = 0;
         }
         report_ = "frame-0 self-check: " + report + "; chosen " + modelName(best);
         init_iou_ = best_iou;
@@ -356,14 +367,41 @@ public:
             CV_Error(Error::StsError,
                      format("init: the object cannot be told from its background by colour on "
                             "frame 0: the best colour model (%s) segments frame 0 with IoU "
-                            "%.2f against the mask, below min_init_iou %.2f (%s). Tracking "
-                            "would follow the background; refusing.",
-                            modelName(best), best_iou, p_.min_init_iou, report.c_str()));
+                            "%.2f against the mask, below min_init_iou %.2f, or overlaps more "
+                            "than max_init_overlap %.2f (%s). Tracking would follow the "
+                            "background; refusing.",
+                            modelName(best), best_iou, p_.min_init_iou, p_.max_init_overlap,
+                            report.c_str()));
         if (best != model_) {  // rebuild the chosen model
             model_ = best;
             learn(frame, m & ~unk_clip, ring & ~unk_clip, rest & ~unk_clip);
         }
         rim_ref_ = rimContrastMedian(frame, d0);
+        // Edge refinement is used when it brings frame 0's disk closer to the mask than the
+        // colour fit alone (a ball whose shaded side the colours miss); on a ball the colours
+        // cover, the colour fit is kept (textured floors have edges of their own).
+        edge_on_ = false;
+        if (p_.edge_refine) {
+            selfCheck(frame, m, win, d0.radius);
+            makeVotes(win);
+            const Point2f off((float)win.x, (float)win.y);
+            DiskFitParams fp;
+            fp.min_step = p_.min_step;
+            fp.min_radius = std::max(2.f, d0.radius * (1 - p_.max_radius_change));
+            if (p_.max_radius_change > 0) fp.max_radius = d0.radius * (1 + p_.max_radius_change);
+            const Disk dl = fitter_.fit(Disk(d0.center - off, d0.radius), fp);
+            const Disk dc(dl.center + off, dl.radius);
+            const Disk de = refineOnEdges(frame, dc, d0.radius, fp);
+            Mat a, b;
+            diskMask(size_, dc, a);
+            diskMask(size_, de, b);
+            const double ic = maskIoU(a, m), ie = maskIoU(b, m);
+            edge_on_ = ie > ic + 0.02;
+            report_ += format(
+                "; disk on frame 0: colour fit IoU %.3f, edge-refined IoU %.3f -> "
+                "edge refinement %s",
+                ic, ie, edge_on_ ? "on" : "off");
+        }
         // Frame 0's own fill and surroundings under the chosen model are the reference: a pale
         // ball whose shaded side the colours cannot claim keeps full marks when it looks as it
         // did on frame 0.
@@ -744,7 +782,7 @@ private:
         Result r;
         if (best.radius > 0) {
             r.disk = Disk(best.center + off, best.radius);
-            if (p_.edge_refine) r.disk = refineOnEdges(frame, r.disk, pred.radius, fp);
+            if (edge_on_) r.disk = refineOnEdges(frame, r.disk, pred.radius, fp);
             score(frame, w, r, use_prediction ? &pred : nullptr);
         }
         r.found = r.confidence >= p_.lost_threshold && best.radius > 0;
@@ -780,10 +818,17 @@ private:
             const float rad = std::sqrt(b.first / (float)CV_PI);
             Result r;
             r.disk = fitter_.fit(Disk(c, rad), fp);
+            if (edge_on_) r.disk = refineOnEdges(frame, r.disk, r_ref, fp);
             score(frame, full, r, nullptr);
-            // Size consistency with the last good disk stands in for the motion model.
-            const float e = std::log(r.disk.radius / r_ref) / 0.5f;
-            r.motion = std::exp(-0.5f * e * e);
+            // Consistency with the last good disk carried on by the motion model, loosely (the
+            // ball may have changed course while hidden): size, and position within a spread
+            // growing with the frames lost.
+            const int gap = lost_run_ + 1;
+            const Point2f expect = prev_.center + vel_ * (float)gap;
+            const float spread = 2.f * r_ref + 0.5f * (float)norm(vel_) * gap + 4.f * gap;
+            const float e = std::log(r.disk.radius / r_ref) / 0.5f,
+                        ep = (float)norm(r.disk.center - expect) / spread;
+            r.motion = std::exp(-0.5f * (e * e + ep * ep));
             if (p_.evidence_confidence)
                 r.confidence = std::cbrt(r.fill * r.surround * r.rim) * (0.5f + 0.5f * r.motion);
             if (r.confidence > best.confidence) best = r;
@@ -886,9 +931,10 @@ private:
             int inl = 0;
             for (char u : use)
                 inl += u;
-            if (c.radius < fp.min_radius * 0.97f ||
-                (fp.max_radius > 0 && c.radius > fp.max_radius * 1.03f))
-                return start;
+            // The colour fit's radius bounds may have dragged it down with a shaded side the
+            // colours miss: the silhouette is bounded by the prediction instead.
+            (void)fp;
+            if (c.radius < 0.7f * r_pred || c.radius > 1.4f * r_pred) return start;
             if (norm(c.center - start.center) > 1.0 * std::max(start.radius, r_pred)) return start;
             d = c;
         }
@@ -910,6 +956,16 @@ private:
             const Vec3b i = px(0.7f), o = px(1.35f);
             out[k] = (std::abs(i[0] - o[0]) + std::abs(i[1] - o[1]) + std::abs(i[2] - o[2])) / 3.f;
         }
+    }
+    // Fraction of the 32 rim directions whose contrast reaches 35 % of frame 0's median.
+    float rimSupport(const Mat& frame, const Disk& d) const {
+        float c[32];
+        rimContrast(frame, d, c);
+        const float need = std::max(6.f, 0.35f * rim_ref_);
+        int edges = 0;
+        for (float v : c)
+            edges += v >= need;
+        return edges / 32.f;
     }
     float rimContrastMedian(const Mat& frame, const Disk& d) const {
         float c[32];
@@ -973,13 +1029,7 @@ private:
         }
         r.fill = std::min(1.f, (in > 0 ? float(in_obj) / in : 0.f) / fill_ref_);
         r.surround = std::min(1.f, (ring > 0 ? 1.f - float(ring_obj) / ring : 1.f) / surround_ref_);
-        float c[32];
-        rimContrast(frame, d, c);
-        const float need = std::max(6.f, 0.35f * rim_ref_);
-        int edges = 0;
-        for (float v : c)
-            edges += v >= need;
-        r.rim = edges / 32.f;
+        r.rim = rimSupport(frame, d);
         r.motion = 1.f;
         if (pred && have_velocity_) {
             const float s = 0.5f * pred->radius + 2.f + 0.5f * (float)norm(vel_);
@@ -1050,7 +1100,7 @@ private:
     Disk prev_;
     Point2f vel_;
     float dr_ = 0, rim_ref_ = 0, fill_ref_ = 1, surround_ref_ = 1;
-    bool have_velocity_ = false, have_prev_found_ = false;
+    bool have_velocity_ = false, have_prev_found_ = false, edge_on_ = false;
     int lost_run_ = 0;
     Rect window_;
 };

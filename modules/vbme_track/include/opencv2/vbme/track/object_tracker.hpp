@@ -111,6 +111,9 @@ public:
         the mask below this: the ball cannot be told from its surroundings by colour. 0 = never
         refuse. */
         float min_init_iou = 0.5f;
+        /** A joint model whose object and background histograms overlap more than this
+        (Bhattacharyya coefficient, 1 = identical) is not used; 1 = no bound. */
+        float max_init_overlap = 0.9f;
         bool predict_motion = true;       //!< constant-velocity prediction places the window
         float max_radius_change = 0.15f;  //!< bound on |Δr|/r per frame (0 = no bound)
         /** Confidence from colour and shape evidence (fill, surroundings, rim edges, motion);
