@@ -169,7 +169,7 @@ void expectOracles(const Score& s, const std::vector<Truth>& truth) {
         }
     }
     // Issue 13 asks IoU >= 0.9 and centre error <= 0.1 r on every visible frame; measured: all
-    // but 3 of 32 (motion blur at frame 1, the box's edge beside the ball), see the report.
+    // but 2 of 32 (frames 9 and 24, the box's edge beside the ball), see doc/vbme_track.md.
     EXPECT_GE(s.visible_ok, (int)std::ceil(0.9 * s.visible));
     EXPECT_GE(s.mean_iou, 0.9);
     EXPECT_LE(s.mean_err, 0.1);
