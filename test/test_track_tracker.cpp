@@ -101,7 +101,14 @@ TEST(TrackTracker, SearchWindowRejectsSameHueDistractor) {
     cp.frames = 32;
     cp.same_hue_distractor = true;
     const SyntheticBallClip clip(cp);
+    // The window's effect on the thesis's tracker (HS model, IoU confidence); the default
+    // tracker's own evidence is tested on the Blender clips (test_track_phone.cpp).
     ObjectTracker::Params with, without;
+    with.colour_model = without.colour_model = TRACK_COLOUR_HS;
+    with.evidence_confidence = without.evidence_confidence = false;
+    with.predict_motion = without.predict_motion = false;
+    with.edge_refine = without.edge_refine = false;
+    with.redetect = without.redetect = false;
     without.use_search_window = false;
     const ClipScore a = trackClip(clip, with), b = trackClip(clip, without);
     std::printf("same-hue distractor: window on  IoU %.3f conf %.3f found %d/%d\n", a.mean_iou,
@@ -158,7 +165,14 @@ TEST(TrackTracker, NeutralHighlightsKeepWhiteOutOfTheColourModel) {
     cp.frames = 16;
     cp.highlight = 6.f;
     const SyntheticBallClip clip(cp);
+    // Neutral highlights matter to the thesis's HS model, which learns any unsaturated pixel
+    // inside the mask; the joint models leave clipped pixels out whatever this switch says.
     ObjectTracker::Params with, without;
+    with.colour_model = without.colour_model = TRACK_COLOUR_HS;
+    with.evidence_confidence = without.evidence_confidence = false;
+    with.predict_motion = without.predict_motion = false;
+    with.edge_refine = without.edge_refine = false;
+    with.redetect = without.redetect = false;
     without.neutral_highlights = false;
     with.use_search_window = without.use_search_window = false;  // look at the whole frame
     const ClipScore a = trackClip(clip, with), b = trackClip(clip, without);

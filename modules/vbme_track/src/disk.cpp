@@ -75,6 +75,8 @@ int DiskFitter::sumInside(float cx, float cy, float r) const {
 Disk DiskFitter::fit(const Disk& init, const DiskFitParams& params) const {
     Disk d = init;
     if (d.radius < params.min_radius) d.radius = params.min_radius;
+    if (params.max_radius > 0 && d.radius > params.max_radius)
+        d.radius = std::max(params.min_radius, params.max_radius);
     int best = sumInside(d.center.x, d.center.y, d.radius);
     const float min_step = std::max(params.min_step, 1.f / 64);
     int moves = 0;
@@ -87,6 +89,7 @@ Disk DiskFitter::fit(const Disk& init, const DiskFitParams& params) const {
             for (int k = 0; k < 6; ++k) {
                 const float r = d.radius + dr[k] * step;
                 if (r < params.min_radius) continue;
+                if (params.max_radius > 0 && r > params.max_radius) continue;
                 const int v = sumInside(d.center.x + dx[k] * step, d.center.y + dy[k] * step, r);
                 if (v > best_val) {
                     best_val = v;

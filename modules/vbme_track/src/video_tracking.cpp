@@ -97,6 +97,7 @@ TrackVideoSummary trackVideo(const std::string& video, InputArray _first_mask,
 
     TrackVideoSummary summary;
     summary.fps = reader.fps();
+    summary.init_report = tracker->initReport();
     StagingDir staging(dir);
     std::unique_ptr<VideoSink> overlay;
     if (!opt.overlay.empty())

@@ -45,6 +45,7 @@ struct CV_EXPORTS DiskFitParams {
     float min_step = 0.25f;      //!< finest step of the hill climbing (pixels); 1 for integers only
     int max_iterations = 10000;  //!< safety bound on moves
     float min_radius = 2.f;      //!< smallest radius considered
+    float max_radius = 0.f;      //!< largest radius considered; 0 = no bound
 };
 
 /** @brief Fits a disk to a mask by hill climbing on the quality of Eq. 4.6.

@@ -2,6 +2,8 @@
 #ifndef OPENCV_VBME_TRACK_OBJECT_TRACKER_HPP
 #define OPENCV_VBME_TRACK_OBJECT_TRACKER_HPP
 
+#include <string>
+
 #include <opencv2/core.hpp>
 
 #include "opencv2/vbme/track/disk.hpp"
@@ -45,6 +47,17 @@ that step. */
 CV_EXPORTS void cleanMask(InputArray mask, OutputArray cleaned, int open_size = 9,
                           int close_size = 13, bool fill_holes = true);
 /** @} */
+
+/** @brief Colour models of ObjectTracker (Params::colour_model). */
+enum TrackColourModel {
+    TRACK_COLOUR_HS = 0,     //!< the thesis: hue–saturation histograms (exact HSV per pixel)
+    TRACK_COLOUR_AUTO = 1,   //!< chosen on frame 0 among the models below by self-check
+    TRACK_COLOUR_LAB8 = 2,   //!< Lab joint histogram, 8×8×8 bins
+    TRACK_COLOUR_LAB16 = 3,  //!< Lab joint histogram, 16×16×16 bins
+    TRACK_COLOUR_HSV = 4,    //!< HSV joint histogram, 12×8×8 bins (keeps the value V)
+    TRACK_COLOUR_AB = 5,     //!< Lab chroma only (a, b), 16×16 bins
+    TRACK_COLOUR_GMM = 6     //!< Gaussian mixtures in Lab: 3 object, 6 background components
+};
 
 /** @brief Tracks a uniformly coloured ball through a video (thesis §4.1).
 
@@ -90,6 +103,27 @@ public:
         float model_update_rate = 0.f;        //!< 0: fixed model; else blend weight per frame
         float min_update_confidence = 0.85f;  //!< update the model only above this confidence
         float min_step = 0.25f;               //!< finest hill-climbing step (pixels)
+        /** Colour model (TrackColourModel). TRACK_COLOUR_AUTO learns joint colour histograms
+        that keep lightness and chroma from frame 0 and picks the one whose segmentation of
+        frame 0 agrees best with the mask; TRACK_COLOUR_HS is the thesis's model. */
+        int colour_model = TRACK_COLOUR_AUTO;
+        /** init() refuses (throws) when the chosen model segments frame 0 with an IoU against
+        the mask below this: the ball cannot be told from its surroundings by colour. 0 = never
+        refuse. */
+        float min_init_iou = 0.5f;
+        /** A joint model whose object and background histograms overlap more than this
+        (Bhattacharyya coefficient, 1 = identical) is not used; 1 = no bound. */
+        float max_init_overlap = 0.9f;
+        bool predict_motion = true;       //!< constant-velocity prediction places the window
+        float max_radius_change = 0.15f;  //!< bound on |Δr|/r per frame (0 = no bound)
+        /** Confidence from colour and shape evidence (fill, surroundings, rim edges, motion);
+        false: the thesis-era IoU of the disk with the cleaned object pixels. */
+        bool evidence_confidence = true;
+        /** Move the colour-fitted disk onto the ball's silhouette: a robust circle through the
+        strongest colour edges along rays from its centre (kept when most rays agree). */
+        bool edge_refine = true;
+        bool redetect = true;             //!< when lost, search the whole frame and resume
+        float redetect_threshold = 0.6f;  //!< confidence needed to resume after a loss
 
         /** @brief Reads the fields present in @p fn (others keep their value), then
         validate()s. */
@@ -102,9 +136,16 @@ public:
 
     /** @brief One frame's result. */
     struct Result {
-        Disk disk;             //!< the fitted disk (the last good one when lost)
-        float confidence = 0;  //!< IoU of the disk with the cleaned object pixels, in [0,1]
-        bool found = false;    //!< confidence ≥ Params::lost_threshold
+        Disk disk;  //!< the fitted disk (the last good one when lost)
+        /** In [0,1]. With Params::evidence_confidence: `cbrt(fill · surround · rim) ·
+        (0.5 + 0.5 · motion)`; else the IoU of the disk with the cleaned object pixels. */
+        float confidence = 0;
+        bool found = false;       //!< confidence ≥ Params::lost_threshold
+        float fill = 0;           //!< fraction of the disk's pixels classified object
+        float surround = 0;       //!< fraction of a ring around the disk classified background
+        float rim = 0;            //!< fraction of rim directions with a colour edge
+        float motion = 0;         //!< agreement with the predicted disk (1 = as predicted)
+        bool redetected = false;  //!< found by a whole-frame search after a loss
     };
 
     virtual ~ObjectTracker();
@@ -128,6 +169,12 @@ public:
     virtual Mat ratioTable() const = 0;
     /** @brief The settings. */
     virtual const Params& params() const = 0;
+    /** @brief The colour model in use after init() (a TrackColourModel, never AUTO). */
+    virtual int colourModel() const = 0;
+    /** @brief IoU of frame 0's segmentation by the chosen model with the init() mask. */
+    virtual double initSelfCheckIoU() const = 0;
+    /** @brief A line describing the models tried at init() and their frame-0 IoU. */
+    virtual std::string initReport() const = 0;
 
     /** @brief Creates a tracker. */
     static Ptr<ObjectTracker> create(const Params& params = Params());

@@ -36,8 +36,9 @@ struct CV_EXPORTS TrackVideoOptions {
 struct CV_EXPORTS TrackVideoSummary {
     std::vector<ObjectTracker::Result> results;  //!< one per frame
     int lost = 0;                                //!< frames where the object was lost
-    double seconds = 0;  //!< wall time of the tracking loop (decoding included)
-    double fps = 0;      //!< the input's frame rate
+    double seconds = 0;       //!< wall time of the tracking loop (decoding included)
+    double fps = 0;           //!< the input's frame rate
+    std::string init_report;  //!< the colour models tried on frame 0 (ObjectTracker::initReport())
 };
 
 /** @brief Tracks the object of @p first_mask through a whole video: the job of `vbme track`.
