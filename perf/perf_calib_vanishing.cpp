@@ -45,6 +45,35 @@ void BM_AutoCalibrate(benchmark::State& state) {
 }
 BENCHMARK(BM_AutoCalibrate)->Arg(640)->Arg(1280)->Unit(benchmark::kMillisecond);
 
+// The previous RANSAC search (Params::RANSAC) on the same image: the peer of BM_AutoCalibrate.
+void BM_AutoCalibrateRansac(benchmark::State& state) {
+    const Size size((int)state.range(0), (int)state.range(0) * 3 / 4);
+    const Mat img = benchImage(size);
+    VanishingPointCalibrator::Params p;
+    p.method = VanishingPointCalibrator::Params::RANSAC;
+    auto cal = VanishingPointCalibrator::create(p);
+    for (auto _ : state) {
+        FrameCalibration fc = cal->detect(img);
+        benchmark::DoNotOptimize(fc);
+    }
+    const double f = cal->detect(img).focal();
+    state.SetLabel(format("focal %.1f px, error %.2f %%", f,
+                          100 * std::abs(f / benchCamera(size).K(0, 0) - 1)));
+}
+BENCHMARK(BM_AutoCalibrateRansac)->Arg(640)->Unit(benchmark::kMillisecond);
+
+// Three ranked proposals and the plumb-line distortion search (9 κ values) on the same image.
+void BM_ProposalsWithDistortion(benchmark::State& state) {
+    const Mat img = benchImage(Size(640, 480));
+    VanishingPointCalibrator::Params p;
+    p.estimate_distortion = true;
+    for (auto _ : state) {
+        auto props = detectManhattanProposals(img, p, 3);
+        benchmark::DoNotOptimize(props.data());
+    }
+}
+BENCHMARK(BM_ProposalsWithDistortion)->Unit(benchmark::kMillisecond);
+
 void BM_LineSegments(benchmark::State& state) {
     const Mat img = benchImage(Size(640, 480));
     auto cal = VanishingPointCalibrator::create();

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "lm.hpp"
+#include "manhattan.hpp"
 #include "opencv2/vbme/calib/frame_calibration.hpp"
 
 namespace cv {
@@ -382,6 +383,22 @@ void VanishingPointCalibrator::Params::read(const FileNode& node) {
     rd("max_focal", max_focal);
     if (!node["seed"].empty()) seed = (int)node["seed"];
     rd("min_confidence", min_confidence);
+    if (!node["method"].empty()) {
+        std::string m = (std::string)node["method"];
+        std::transform(m.begin(), m.end(), m.begin(),
+                       [](unsigned char c) { return std::tolower(c); });
+        if (m == "global")
+            method = GLOBAL;
+        else if (m == "ransac")
+            method = RANSAC;
+        else
+            CV_Error(Error::StsBadArg,
+                     "method: unknown detection method '" + m + "' (expected global or ransac)");
+    }
+    rd("focal_prior", focal_prior);
+    rd("focal_prior_sigma", focal_prior_sigma);
+    if (!node["estimate_distortion"].empty())
+        estimate_distortion = (int)node["estimate_distortion"] != 0;
 }
 
 void VanishingPointCalibrator::Params::write(FileStorage& fs) const {
@@ -393,6 +410,31 @@ void VanishingPointCalibrator::Params::write(FileStorage& fs) const {
     fs << "inlier_angle_deg" << inlier_angle_deg << "ransac_iterations" << ransac_iterations;
     fs << "min_focal" << min_focal << "max_focal" << max_focal << "seed" << seed;
     fs << "min_confidence" << min_confidence;
+    fs << "method" << (method == RANSAC ? "ransac" : "global");
+    fs << "focal_prior" << focal_prior << "focal_prior_sigma" << focal_prior_sigma;
+    fs << "estimate_distortion" << (int)estimate_distortion;
+}
+
+Point2d undistortPointK1(const Point2d& p, double f, const Point2d& c, double k1) {
+    if (!(f > 0)) CV_Error(Error::StsBadArg, "undistortPointK1: expected a positive focal length");
+    const double xd = (p.x - c.x) / f, yd = (p.y - c.y) / f;
+    double xu = xd, yu = yd;
+    for (int it = 0; it < 20; ++it) {
+        const double s = std::max(0.2, 1 + k1 * (xu * xu + yu * yu));
+        xu = xd / s;
+        yu = yd / s;
+    }
+    return Point2d(c.x + f * xu, c.y + f * yu);
+}
+
+std::vector<ManhattanProposal> detectManhattanProposals(
+    InputArray image, const VanishingPointCalibrator::Params& params, int max_proposals) {
+    VanishingPointCalibrator::Params p = params;
+    p.method = VanishingPointCalibrator::Params::GLOBAL;
+    const Mat gray = detail::toGray8(image);
+    std::vector<Vec4f> segs;
+    detail::detectSegmentsMerged(gray, p, segs);
+    return detail::searchManhattan(segs, gray.size(), p, max_proposals);
 }
 
 namespace {
@@ -529,6 +571,10 @@ public:
     }
 
     void detectSegments(InputArray image, std::vector<Vec4f>& segments) const override {
+        if (p_.method == Params::GLOBAL) {
+            detail::detectSegmentsMerged(detail::toGray8(image), p_, segments);
+            return;
+        }
         Mat img = image.getMat();
         if (img.empty()) CV_Error(Error::StsBadArg, "detect: the image is empty");
         Mat gray;
@@ -561,6 +607,16 @@ public:
         const Size size = image.size();
         std::vector<Vec4f> segs;
         detectSegments(image, segs);
+        if (p_.method == Params::GLOBAL) {
+            FrameCalibration out = detail::searchManhattan(segs, size, p_, 1)[0].calibration;
+            if (out.confidence < p_.min_confidence)
+                CV_Error(Error::StsError,
+                         format("automatic detection is not confident (%.2f < %.2f: %d/%d/%d "
+                                "segments per direction); annotate the lines by hand",
+                                out.confidence, p_.min_confidence, out.support[0], out.support[1],
+                                out.support[2]));
+            return out;
+        }
         const int n = (int)segs.size();
         if (n < 6)
             CV_Error(Error::StsError,

@@ -87,6 +87,11 @@ struct CV_EXPORTS FrameCalibration {
     double rms_px = 0;            //!< RMS distance of segment endpoints to their VP lines
     std::vector<Vec4f> segments;  //!< segments used (detected or given)
     std::vector<int> labels;      //!< world axis of each segment (0, 1, 2) or −1 (outlier)
+    /** @brief Radial distortion coefficient (one-parameter model of OpenCV / COLMAP
+    SIMPLE_RADIAL: a normalised undistorted point x = K⁻¹ p is seen at x (1 + k1 |x|²)); 0
+    unless estimated (VanishingPointCalibrator::Params::estimate_distortion). K, R and the
+    vanishing points are those of the undistorted image; `segments` are as detected. */
+    double k1 = 0;
 
     /** @brief The camera (K, R, image size; t = 0 until placed). */
     Camera camera() const;
@@ -125,6 +130,25 @@ public:
         /** @brief detection: results below this confidence are rejected as not a Manhattan
         scene. */
         double min_confidence = 0.25;
+        /** @brief detection: the Manhattan-frame search. */
+        enum Method {
+            /** Exhaustive search over vanishing-point candidates from pairs of the longest
+            segments, every pair of candidates giving a frame (focal from orthogonality),
+            then a joint robust refinement of focal length and rotation (default). */
+            GLOBAL = 0,
+            /** The previous method: RANSAC over random minimal sets of LSD segments, kept for
+            comparison. */
+            RANSAC = 1
+        };
+        Method method = GLOBAL;  //!< detection: the search (file value "global" / "ransac")
+        /** @brief detection: focal length prior in pixels (e.g. from EXIF; 0: none). Unlike
+        `focal` it is not imposed: it adds hypotheses and a soft term to the refinement. */
+        double focal_prior = 0;
+        /** @brief detection: standard deviation of the focal prior, relative (in log f). */
+        double focal_prior_sigma = 0.1;
+        /** @brief detection: also estimate one radial distortion coefficient k1 from the
+        straightness of the lines and their meeting in the vanishing points (GLOBAL only). */
+        bool estimate_distortion = false;
 
         /** @brief Reads the fields present in @p node. */
         void read(const FileNode& node);
@@ -147,12 +171,47 @@ public:
     found. */
     virtual FrameCalibration detect(InputArray image) const = 0;
 
-    /** @brief The line segments detection works on (LSD, filtered and sorted by length). */
+    /** @brief The line segments detection works on (LSD, filtered and sorted by length;
+    with the GLOBAL method collinear pieces are merged first). */
     virtual void detectSegments(InputArray image, std::vector<Vec4f>& segments) const = 0;
 
     /** @brief Current settings. */
     virtual const Params& params() const = 0;
 };
+
+/** @brief One Manhattan frame proposed by automatic detection, with how much to trust it. */
+struct CV_EXPORTS ManhattanProposal {
+    FrameCalibration calibration;  //!< K, R, vanishing points, segment labels, k1
+    /** @brief Robust consensus: length-weighted share of the segments pointing at one of the
+    three vanishing points (in [0, 1]). */
+    double score = 0;
+    /** @brief In [0, 1]: the frame's own quality (calibration.confidence) times its share of
+    the proposals' (sharpened) scores; low when another frame scores close. */
+    double confidence = 0;
+    /** @brief Whether another proposal scores within 10 % of this one (then both are kept and
+    the user should choose). */
+    bool ambiguous = false;
+    std::string note;  //!< human-readable reason for the confidence ("", or why it is low)
+};
+
+/** @brief Ranked Manhattan-frame proposals for the image, best first.
+
+Line segments (LSD @cite vonGioi2012, collinear pieces merged, short ones dropped) vote for
+vanishing-point candidates (intersections of pairs of the longest segments, scored by a
+robust angular consensus @cite Lezama2014); every pair of candidates gives a frame whose focal
+length follows from orthogonality with the principal point at the centre @cite Caprile1990;
+all pairs are scored, distinct frames are refined jointly (focal, rotation, optionally k1)
+with a Cauchy loss (Ceres) and ranked. The first proposal is what detect() returns.
+@param image 8-bit gray or BGR.
+@param params settings (method must be GLOBAL).
+@param max_proposals the most proposals returned (≥ 1).
+Throws cv::Exception with the reason when no plausible frame is found. */
+CV_EXPORTS std::vector<ManhattanProposal> detectManhattanProposals(
+    InputArray image, const VanishingPointCalibrator::Params& params = {}, int max_proposals = 3);
+
+/** @brief Removes one-coefficient radial distortion from pixel points (inverse of
+`p_d = c + f x (1 + k1 |x|²)`, x = (p − c) / f), by fixed-point iteration. */
+CV_EXPORTS Point2d undistortPointK1(const Point2d& p, double f, const Point2d& c, double k1);
 
 /** @brief Places a camera whose K and R are known @p height metres above the world origin on
 the floor: centre (0, 0, height), t = −R·centre. Throws for a non-positive height. */

@@ -1,0 +1,647 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// GLOBAL Manhattan-frame search: merged LSD segments with an angular uncertainty each;
+// vanishing-point candidates from all pairs of the longest segments, scored by a robust
+// consensus; every pair of candidates a frame (focal from orthogonality); distinct frames
+// refined with Ceres (Cauchy loss) over focal, rotation and optionally one radial coefficient.
+#include "manhattan.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace cv {
+namespace vbme {
+namespace detail {
+
+Mat toGray8(InputArray image) {
+    Mat img = image.getMat();
+    if (img.empty()) CV_Error(Error::StsBadArg, "detect: the image is empty");
+    Mat gray;
+    if (img.channels() == 3)
+        cvtColor(img, gray, COLOR_BGR2GRAY);
+    else if (img.channels() == 4)
+        cvtColor(img, gray, COLOR_BGRA2GRAY);
+    else
+        gray = img;
+    if (gray.depth() != CV_8U) {
+        Mat g8;
+        gray.convertTo(g8, CV_8U, gray.depth() == CV_16U ? 1.0 / 257 : 255.0);
+        gray = g8;
+    }
+    return gray;
+}
+
+namespace {
+
+struct Piece {
+    Vec2d p, q;
+    double len() const { return norm(q - p); }
+};
+
+/** Merges collinear, nearly touching pieces (longest first); returns the merged set. */
+std::vector<Piece> mergeCollinear(std::vector<Piece> s) {
+    const double sin_tol = std::sin(2.0 * CV_PI / 180), dist_tol = 1.5;
+    std::sort(s.begin(), s.end(), [](const Piece& a, const Piece& b) { return a.len() > b.len(); });
+    std::vector<char> alive(s.size(), 1);
+    for (size_t i = 0; i < s.size(); ++i) {
+        if (!alive[i]) continue;
+        bool merged = true;
+        while (merged) {
+            merged = false;
+            const double li = s[i].len();
+            if (li < 1e-9) break;
+            const Vec2d u = (s[i].q - s[i].p) / li, nrm(-u[1], u[0]);
+            for (size_t j = i + 1; j < s.size(); ++j) {
+                if (!alive[j]) continue;
+                const double lj = s[j].len();
+                if (lj < 1e-9) continue;
+                const Vec2d uj = (s[j].q - s[j].p) / lj;
+                if (std::abs(u[0] * uj[1] - u[1] * uj[0]) > sin_tol) continue;
+                const double dp = (s[j].p - s[i].p).dot(nrm), dq = (s[j].q - s[i].p).dot(nrm);
+                if (std::abs(dp) > dist_tol || std::abs(dq) > dist_tol) continue;
+                const double tp = (s[j].p - s[i].p).dot(u), tq = (s[j].q - s[i].p).dot(u);
+                const double tmin = std::min(tp, tq), tmax = std::max(tp, tq);
+                const double gap = std::max({0.0, tmin - li, -tmax});
+                if (gap > std::min(20.0, 3.0 + 0.25 * std::min(li, lj))) continue;
+                // Length-weighted line through the pieces, spanning both.
+                const Vec2d uj_al = uj.dot(u) >= 0 ? uj : -uj;
+                const Vec2d d = normalize(li * u + lj * uj_al);
+                const Vec2d c =
+                    (li * (s[i].p + s[i].q) * 0.5 + lj * (s[j].p + s[j].q) * 0.5) / (li + lj);
+                double a = 1e300, b = -1e300;
+                for (const Vec2d& e : {s[i].p, s[i].q, s[j].p, s[j].q}) {
+                    const double t = (e - c).dot(d);
+                    a = std::min(a, t);
+                    b = std::max(b, t);
+                }
+                s[i].p = c + a * d;
+                s[i].q = c + b * d;
+                alive[j] = 0;
+                merged = true;
+                break;
+            }
+        }
+    }
+    std::vector<Piece> out;
+    for (size_t i = 0; i < s.size(); ++i)
+        if (alive[i]) out.push_back(s[i]);
+    return out;
+}
+
+}  // namespace
+
+void detectSegmentsMerged(const Mat& gray, const VanishingPointCalibrator::Params& p,
+                          std::vector<Vec4f>& segments) {
+    // Noisy images (the median absolute Laplacian as a noise estimate) are smoothed and
+    // searched at half resolution, where LSD's gradient test still finds their edges.
+    Mat lap;
+    Laplacian(gray, lap, CV_16S);
+    std::vector<short> v;
+    v.reserve(gray.total() / 4 + 1);
+    for (int y = 0; y < lap.rows; y += 2)
+        for (int x = 0; x < lap.cols; x += 2)
+            v.push_back((short)std::abs(lap.at<short>(y, x)));
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    // A Laplacian of i.i.d. noise σ has standard deviation √20 σ; MAD → σ by 1/0.6745.
+    const double noise = v.empty() ? 0 : v[v.size() / 2] / 0.6745 / std::sqrt(20.0);
+    Mat src = gray;
+    double scale = 0.8;
+    if (noise > 4) {
+        GaussianBlur(gray, src, Size(), 1.0);
+        scale = 0.5;
+    }
+    Ptr<LineSegmentDetector> lsd = createLineSegmentDetector(LSD_REFINE_STD, scale);
+    std::vector<Vec4f> raw;
+    lsd->detect(src, raw);
+    const double diag = std::hypot(gray.cols, gray.rows);
+    const double minlen = p.min_segment_length > 0 ? p.min_segment_length : 0.03 * diag;
+    // Pieces shorter than a third of the threshold are texture; longer ones may join up.
+    std::vector<Piece> pieces;
+    for (const auto& s : raw) {
+        Piece pc{Vec2d(s[0], s[1]), Vec2d(s[2], s[3])};
+        if (pc.len() >= std::max(6.0, minlen / 3)) pieces.push_back(pc);
+    }
+    pieces = mergeCollinear(pieces);
+    segments.clear();
+    for (const auto& pc : pieces)
+        if (pc.len() >= minlen)
+            segments.emplace_back((float)pc.p[0], (float)pc.p[1], (float)pc.q[0], (float)pc.q[1]);
+    std::stable_sort(segments.begin(), segments.end(), [](const Vec4f& a, const Vec4f& b) {
+        return std::hypot(a[2] - a[0], a[3] - a[1]) > std::hypot(b[2] - b[0], b[3] - b[1]);
+    });
+    if ((int)segments.size() > p.max_segments) segments.resize(p.max_segments);
+}
+
+namespace {
+
+/** A segment in normalised coordinates ((pixel − principal point) / W). */
+struct Seg {
+    Vec2d a, b;      // endpoints as detected (distorted)
+    Vec2d ua, ub;    // endpoints undistorted with the current κ
+    Vec2d m, u;      // undistorted midpoint and unit direction
+    Vec3d l;         // undistorted line, unit normal
+    double len = 0;  // length in pixels
+    double thr = 0;  // sine of the inlier angle
+    double w = 0;    // weight (length share)
+};
+
+/** Undistorts a normalised point: x_d = x_u (1 + κ |x_u|²) solved for x_u. */
+template <class T>
+void undistortKappa(const T& xd, const T& yd, const T& kappa, T& xu, T& yu) {
+    xu = xd;
+    yu = yd;
+    for (int it = 0; it < 8; ++it) {
+        T s = T(1) + kappa * (xu * xu + yu * yu);
+        if (s < T(0.2)) s = T(0.2);
+        xu = xd / s;
+        yu = yd / s;
+    }
+}
+
+void setKappa(std::vector<Seg>& segs, double kappa) {
+    for (auto& s : segs) {
+        undistortKappa(s.a[0], s.a[1], kappa, s.ua[0], s.ua[1]);
+        undistortKappa(s.b[0], s.b[1], kappa, s.ub[0], s.ub[1]);
+        s.m = (s.ua + s.ub) * 0.5;
+        const Vec2d d = s.ub - s.ua;
+        const double n = norm(d);
+        s.u = n > 0 ? d / n : Vec2d(1, 0);
+        Vec3d l = Vec3d(s.ua[0], s.ua[1], 1).cross(Vec3d(s.ub[0], s.ub[1], 1));
+        const double ln = std::hypot(l[0], l[1]);
+        s.l = ln > 0 ? l / ln : l;
+    }
+}
+
+inline double angleSin(const Seg& s, const Vec3d& v) {
+    const double tx = v[0] - s.m[0] * v[2], ty = v[1] - s.m[1] * v[2];
+    const double tn = std::hypot(tx, ty);
+    if (tn < 1e-12) return 1.0;
+    return std::abs(s.u[0] * ty - s.u[1] * tx) / tn;
+}
+
+inline double vote(const Seg& s, const Vec3d& v) {
+    const double sa = angleSin(s, v);
+    if (sa >= s.thr) return 0;
+    const double r = sa / s.thr;
+    return s.w * (1 - r * r);
+}
+
+/** A Manhattan frame: D's columns are the three directions in camera coordinates, F the
+focal length in units of W. */
+struct Frame {
+    Matx33d D;
+    double F = 1, kappa = 0, score = 0;
+    Vec3d vp(int a) const { return Vec3d(F * D(0, a), F * D(1, a), D(2, a)); }
+};
+
+double scoreFrame(const std::vector<Seg>& segs, const Frame& fr, std::vector<int>* labels,
+                  double thr_scale = 1.0) {
+    const Vec3d V[3] = {fr.vp(0), fr.vp(1), fr.vp(2)};
+    double sc = 0;
+    if (labels) labels->assign(segs.size(), -1);
+    for (size_t i = 0; i < segs.size(); ++i) {
+        const Seg& s = segs[i];
+        double best = s.thr * thr_scale;
+        int ba = -1;
+        for (int a = 0; a < 3; ++a) {
+            const double sa = angleSin(s, V[a]);
+            if (sa < best) {
+                best = sa;
+                ba = a;
+            }
+        }
+        if (ba >= 0) {
+            const double r = best / (s.thr * thr_scale);
+            sc += s.w * (1 - r * r);
+        }
+        if (labels) (*labels)[i] = ba;
+    }
+    return sc;
+}
+
+Vec3d unitPositive(Vec3d v) {
+    const double n = norm(v);
+    if (n > 0) v /= n;
+    if (v[2] < 0 || (v[2] == 0 && (v[0] < 0 || (v[0] == 0 && v[1] < 0)))) v = -v;
+    return v;
+}
+
+/** Least-squares vanishing point of the segments voting for @p v (weighted lines' normal
+space), or @p v when fewer than two vote. */
+Vec3d refineCandidate(const std::vector<Seg>& segs, const Vec3d& v) {
+    Matx33d M = Matx33d::zeros();
+    int k = 0;
+    for (const auto& s : segs) {
+        const double sa = angleSin(s, v);
+        if (sa >= s.thr) continue;
+        const double r = sa / s.thr;
+        M += (s.w * (1 - r * r)) * (s.l * s.l.t());
+        ++k;
+    }
+    if (k < 2) return v;
+    Matx31d ev;
+    Matx33d evec;
+    eigen(M, ev, evec);
+    return unitPositive(Vec3d(evec(2, 0), evec(2, 1), evec(2, 2)));
+}
+
+/** All pairs of the longest segments' lines → candidates, NMS, refined. */
+std::vector<std::pair<double, Vec3d>> vpCandidates(const std::vector<Seg>& segs, int n_long,
+                                                   int keep) {
+    const int N = std::min<int>((int)segs.size(), n_long);
+    std::vector<std::pair<double, Vec3d>> cand;
+    cand.reserve(N * (N - 1) / 2);
+    for (int i = 0; i < N; ++i)
+        for (int j = i + 1; j < N; ++j) {
+            Vec3d v = segs[i].l.cross(segs[j].l);
+            const double nv = norm(v);
+            if (nv < 1e-12) continue;
+            v /= nv;
+            if (std::abs(v[2]) > 1e-9) {  // a finite VP must not lie inside either segment
+                const Vec2d p(v[0] / v[2], v[1] / v[2]);
+                if ((p - segs[i].ua).dot(p - segs[i].ub) < 0 ||
+                    (p - segs[j].ua).dot(p - segs[j].ub) < 0)
+                    continue;
+            }
+            double sc = 0;
+            for (const auto& s : segs)
+                sc += vote(s, v);
+            cand.emplace_back(sc, unitPositive(v));
+        }
+    std::sort(cand.begin(), cand.end(),
+              [](const std::pair<double, Vec3d>& a, const std::pair<double, Vec3d>& b) {
+                  return a.first > b.first;
+              });
+    // Non-maximum suppression by votes: a candidate is kept when most of its votes come from
+    // segments no kept candidate explains yet (a strong vanishing point has many near
+    // duplicates, which would otherwise crowd out the weaker directions).
+    const double cos_sep = std::cos(1.0 * CV_PI / 180);
+    std::vector<char> claimed(segs.size(), 0);
+    std::vector<std::pair<double, Vec3d>> kept;
+    for (const auto& c : cand) {
+        if (c.first <= 0) break;
+        bool dup = false;
+        for (const auto& k : kept)
+            if (std::abs(c.second.dot(k.second)) > cos_sep) {
+                dup = true;
+                break;
+            }
+        if (dup) continue;
+        double novel = 0;
+        for (size_t i = 0; i < segs.size(); ++i)
+            if (!claimed[i]) novel += vote(segs[i], c.second);
+        if (novel < 0.5 * c.first) continue;
+        kept.push_back(c);
+        for (size_t i = 0; i < segs.size(); ++i)
+            if (vote(segs[i], c.second) > 0) claimed[i] = 1;
+        if ((int)kept.size() >= keep) break;
+    }
+    for (auto& k : kept) {
+        k.second = refineCandidate(segs, k.second);
+        double sc = 0;
+        for (const auto& s : segs)
+            sc += vote(s, k.second);
+        k.first = sc;
+    }
+    return kept;
+}
+
+Frame frameFrom(const Vec3d& a, const Vec3d& b, double F, bool orthogonalise) {
+    Vec3d d1 = normalize(Vec3d(a[0] / F, a[1] / F, a[2]));
+    Vec3d d2 = normalize(Vec3d(b[0] / F, b[1] / F, b[2]));
+    if (orthogonalise) d2 = normalize(d2 - d1 * d1.dot(d2));
+    const Vec3d d3 = d1.cross(d2);
+    Frame fr;
+    fr.F = F;
+    for (int r = 0; r < 3; ++r) {
+        fr.D(r, 0) = d1[r];
+        fr.D(r, 1) = d2[r];
+        fr.D(r, 2) = d3[r];
+    }
+    return fr;
+}
+
+/** Every pair of candidates → frame(s), scored; best first. */
+std::vector<Frame> pairHypotheses(const std::vector<Seg>& segs,
+                                  const std::vector<std::pair<double, Vec3d>>& cand,
+                                  const VanishingPointCalibrator::Params& p, double W) {
+    std::vector<Frame> hyp;
+    const double minF = p.min_focal, maxF = p.max_focal;
+    std::vector<double> fixedF;
+    if (p.focal > 0)
+        fixedF.push_back(p.focal / W);
+    else if (p.focal_prior > 0)
+        fixedF.push_back(p.focal_prior / W);
+    const double max_cos = std::sin(12.0 * CV_PI / 180);
+    for (size_t i = 0; i < cand.size(); ++i)
+        for (size_t j = i + 1; j < cand.size(); ++j) {
+            const Vec3d &a = cand[i].second, &b = cand[j].second;
+            if (p.focal <= 0 && std::abs(a[2]) > 1e-6 && std::abs(b[2]) > 1e-6) {
+                const double F2 = -(a[0] * b[0] + a[1] * b[1]) / (a[2] * b[2]);
+                if (F2 > minF * minF && F2 < maxF * maxF) {
+                    Frame fr = frameFrom(a, b, std::sqrt(F2), true);
+                    fr.score = scoreFrame(segs, fr, nullptr);
+                    hyp.push_back(fr);
+                }
+            }
+            for (double F : fixedF) {
+                Frame fr = frameFrom(a, b, F, false);
+                const Vec3d d1(fr.D(0, 0), fr.D(1, 0), fr.D(2, 0)),
+                    d2(fr.D(0, 1), fr.D(1, 1), fr.D(2, 1));
+                if (std::abs(d1.dot(d2)) > max_cos) continue;
+                fr = frameFrom(a, b, F, true);
+                fr.score = scoreFrame(segs, fr, nullptr);
+                hyp.push_back(fr);
+            }
+        }
+    std::sort(hyp.begin(), hyp.end(),
+              [](const Frame& x, const Frame& y) { return x.score > y.score; });
+    return hyp;
+}
+
+bool sameFrame(const Frame& x, const Frame& y) {
+    if (std::abs(std::log(x.F / y.F)) > 0.05) return false;
+    const double c = std::cos(3.0 * CV_PI / 180);
+    for (int a = 0; a < 3; ++a) {
+        bool found = false;
+        for (int b = 0; b < 3 && !found; ++b) {
+            double d = 0;
+            for (int r = 0; r < 3; ++r)
+                d += x.D(r, a) * y.D(r, b);
+            found = std::abs(d) > c;
+        }
+        if (!found) return false;
+    }
+    return true;
+}
+
+/** Endpoint distance to the line joining the midpoint and the VP of the segment's axis, in
+pixels, with the endpoints undistorted by κ. */
+struct SegmentCost {
+    double ax, ay, bx, by, sw;
+    Vec3d d0;  // the axis direction before the rotation update
+    template <class T>
+    bool operator()(const T* rot, const T* logF, const T* kappa, T* r) const {
+        T xa, ya, xb, yb;
+        undistortKappa(T(ax), T(ay), kappa[0], xa, ya);
+        undistortKappa(T(bx), T(by), kappa[0], xb, yb);
+        const T p[3] = {T(d0[0]), T(d0[1]), T(d0[2])};
+        T d[3];
+        ceres::AngleAxisRotatePoint(rot, p, d);
+        const T F = exp(logF[0]);
+        const T v0 = F * d[0], v1 = F * d[1], v2 = d[2];
+        const T m0 = (xa + xb) * 0.5, m1 = (ya + yb) * 0.5;
+        const T L0 = m1 * v2 - v1, L1 = v0 - m0 * v2, L2 = m0 * v1 - m1 * v0;
+        const T n = sqrt(L0 * L0 + L1 * L1 + T(1e-30));
+        r[0] = T(sw) * (L0 * xa + L1 * ya + L2) / n;
+        return true;
+    }
+};
+
+struct FocalPriorCost {
+    double logF0, inv_sigma;
+    template <class T>
+    bool operator()(const T* logF, T* r) const {
+        r[0] = (logF[0] - T(logF0)) * T(inv_sigma);
+        return true;
+    }
+};
+
+/** Relabel + robust joint refinement, a few rounds. */
+void refineFrame(std::vector<Seg>& segs, Frame& fr, const VanishingPointCalibrator::Params& p,
+                 double W, bool est_kappa) {
+    double mean_len = 0;
+    for (const auto& s : segs)
+        mean_len += s.len;
+    mean_len /= std::max<size_t>(1, segs.size());
+    for (int round = 0; round < 3; ++round) {
+        setKappa(segs, fr.kappa);
+        std::vector<int> labels;
+        scoreFrame(segs, fr, &labels, 1.5);
+        double rot[3] = {0, 0, 0}, logF = std::log(fr.F), kappa = fr.kappa;
+        ceres::Problem problem;
+        int nres = 0;
+        for (size_t i = 0; i < segs.size(); ++i) {
+            if (labels[i] < 0) continue;
+            const Seg& s = segs[i];
+            auto* c =
+                new SegmentCost{s.a[0],
+                                s.a[1],
+                                s.b[0],
+                                s.b[1],
+                                W * std::sqrt(s.len / mean_len),
+                                Vec3d(fr.D(0, labels[i]), fr.D(1, labels[i]), fr.D(2, labels[i]))};
+            problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SegmentCost, 1, 3, 1, 1>(c),
+                                     new ceres::CauchyLoss(1.0), rot, &logF, &kappa);
+            ++nres;
+        }
+        if (nres < 5) return;
+        if (p.focal > 0) problem.SetParameterBlockConstant(&logF);
+        if (!est_kappa) problem.SetParameterBlockConstant(&kappa);
+        if (p.focal <= 0 && p.focal_prior > 0)
+            problem.AddResidualBlock(
+                new ceres::AutoDiffCostFunction<FocalPriorCost, 1, 1>(new FocalPriorCost{
+                    std::log(p.focal_prior / W), 1.0 / std::max(1e-3, p.focal_prior_sigma)}),
+                nullptr, &logF);
+        ceres::Solver::Options opt;
+        opt.linear_solver_type = ceres::DENSE_QR;
+        opt.max_num_iterations = 30;
+        opt.num_threads = 1;
+        opt.logging_type = ceres::SILENT;
+        ceres::Solver::Summary sum;
+        ceres::Solve(opt, &problem, &sum);
+        Matx33d dR;
+        Rodrigues(Vec3d(rot[0], rot[1], rot[2]), dR);
+        fr.D = dR * fr.D;
+        fr.F = std::exp(logF);
+        fr.kappa = kappa;
+    }
+    setKappa(segs, fr.kappa);
+    fr.score = scoreFrame(segs, fr, nullptr);
+}
+
+}  // namespace
+
+std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Size size,
+                                               const VanishingPointCalibrator::Params& p,
+                                               int max_proposals) {
+    const int n = (int)px.size();
+    if (n < 6)
+        CV_Error(Error::StsError,
+                 format("automatic detection found only %d line segments; expected at least "
+                        "6 (annotate the lines by hand)",
+                        n));
+    if (max_proposals < 1) max_proposals = 1;
+    const double W = std::max(size.width, size.height);
+    const Point2d pp = p.principal_point.x >= 0 && p.principal_point.y >= 0
+                           ? p.principal_point
+                           : Point2d((size.width - 1) * 0.5, (size.height - 1) * 0.5);
+    std::vector<Seg> segs(n);
+    double total = 0;
+    const double thr_max = std::sin(2.0 * p.inlier_angle_deg * CV_PI / 180),
+                 thr_min = std::sin(0.3 * p.inlier_angle_deg * CV_PI / 180);
+    for (int i = 0; i < n; ++i) {
+        Seg& s = segs[i];
+        s.a = Vec2d((px[i][0] - pp.x) / W, (px[i][1] - pp.y) / W);
+        s.b = Vec2d((px[i][2] - pp.x) / W, (px[i][3] - pp.y) / W);
+        s.len = std::hypot(px[i][2] - px[i][0], px[i][3] - px[i][1]);
+        // Angular uncertainty of a segment of length L with endpoint noise σ: √2 σ / L
+        // (σ = 0.5 px), plus 0.1° of model error; the inlier threshold is 3 of those.
+        const double sig = std::sqrt(2.0) * 0.5 / std::max(1.0, s.len) + 0.1 * CV_PI / 180;
+        s.thr = std::min(thr_max, std::max(thr_min, std::sin(3 * sig)));
+        s.w = s.len;
+        total += s.len;
+    }
+    for (auto& s : segs)
+        s.w /= total;
+    // Search (at each κ of a grid when distortion is estimated; κ in units of W).
+    std::vector<double> kappas = {0.0};
+    if (p.estimate_distortion) kappas = {0.0, -0.05, -0.1, -0.2, -0.3, -0.45, -0.6, 0.05, 0.1};
+    std::vector<Frame> hyp;
+    double best_sc = -1, best_kappa = 0;
+    for (double kappa : kappas) {
+        setKappa(segs, kappa);
+        const auto cand = vpCandidates(segs, 80, 30);
+        std::vector<Frame> h = pairHypotheses(segs, cand, p, W);
+        if (!h.empty() && h[0].score > best_sc) {
+            best_sc = h[0].score;
+            best_kappa = kappa;
+            hyp.swap(h);
+            for (auto& f : hyp)
+                f.kappa = kappa;
+        }
+    }
+    (void)best_kappa;
+    if (hyp.empty())
+        CV_Error(Error::StsError,
+                 "automatic detection found no pair of orthogonal vanishing points with a "
+                 "plausible focal length; annotate the lines by hand or give the focal length");
+    // Distinct frames, refined, re-ranked.
+    std::vector<Frame> frames;
+    const int n_refine = max_proposals + 2;
+    for (const auto& h : hyp) {
+        bool dup = false;
+        for (const auto& f : frames)
+            if (sameFrame(h, f)) {
+                dup = true;
+                break;
+            }
+        if (!dup) frames.push_back(h);
+        if ((int)frames.size() >= n_refine) break;
+    }
+    for (auto& f : frames)
+        refineFrame(segs, f, p, W, p.estimate_distortion);
+    std::sort(frames.begin(), frames.end(),
+              [](const Frame& x, const Frame& y) { return x.score > y.score; });
+    // Refinement can bring two hypotheses onto one frame.
+    std::vector<Frame> uniq;
+    for (const auto& f : frames) {
+        bool dup = false;
+        for (const auto& u : uniq)
+            if (sameFrame(f, u)) dup = true;
+        if (!dup) uniq.push_back(f);
+    }
+    std::vector<ManhattanProposal> out;
+    std::string first_reason;
+    const double gamma = 8;
+    double zsum = 0;
+    for (const auto& f : uniq)
+        zsum += std::pow(f.score / uniq[0].score, gamma);
+    for (size_t k = 0; k < uniq.size() && (int)out.size() < max_proposals; ++k) {
+        const Frame& fr = uniq[k];
+        setKappa(segs, fr.kappa);
+        std::vector<int> labels;
+        scoreFrame(segs, fr, &labels);
+        int support[3] = {0, 0, 0};
+        double support_len[3] = {0, 0, 0}, inlier_len = 0;
+        for (int i = 0; i < n; ++i)
+            if (labels[i] >= 0) {
+                support[labels[i]]++;
+                support_len[labels[i]] += segs[i].w;
+                inlier_len += segs[i].w;
+            }
+        int order[3] = {0, 1, 2};
+        std::sort(order, order + 3, [&](int a, int b) { return support[a] > support[b]; });
+        std::string reason;
+        const double fpx = fr.F * W;
+        if (support[order[1]] < 3)
+            reason = format(
+                "only one line direction (%d segments; the next has %d); expected at "
+                "least two orthogonal directions",
+                support[order[0]], support[order[1]]);
+        else if (fr.F < p.min_focal || fr.F > p.max_focal)
+            reason = format("implausible focal length %.1f px (expected %.0f–%.0f)", fpx,
+                            p.min_focal * W, p.max_focal * W);
+        if (!reason.empty()) {
+            if (first_reason.empty()) first_reason = reason;
+            continue;
+        }
+        std::vector<Vec3d> dirs(3);
+        for (int a = 0; a < 3; ++a)
+            dirs[a] = Vec3d(fr.D(0, a), fr.D(1, a), fr.D(2, a));
+        std::vector<int> axis_of;
+        const Matx33d R = rotationFromDirections(dirs, {}, &axis_of);
+        ManhattanProposal mp;
+        FrameCalibration& c = mp.calibration;
+        c.image_size = size;
+        c.K = Matx33d(fpx, 0, pp.x, 0, fpx, pp.y, 0, 0, 1);
+        c.R = R;
+        c.k1 = fr.kappa / (fr.F * fr.F);  // κ (units of W) → k1 (units of f)
+        c.segments = px;
+        c.labels.resize(n);
+        double s2 = 0;
+        int ninl = 0;
+        for (int i = 0; i < n; ++i) {
+            c.labels[i] = labels[i] < 0 ? -1 : axis_of[labels[i]];
+            if (labels[i] >= 0) {
+                const Seg& s = segs[i];
+                const Vec3d v = fr.vp(labels[i]);
+                const double a0 = s.m[1] * v[2] - v[1], a1 = v[0] - s.m[0] * v[2],
+                             a2 = s.m[0] * v[1] - s.m[1] * v[0];
+                const double d =
+                    W * (a0 * s.ua[0] + a1 * s.ua[1] + a2) / std::max(1e-300, std::hypot(a0, a1));
+                s2 += d * d;
+                ++ninl;
+            }
+        }
+        for (int a = 0; a < 3; ++a)
+            c.support[axis_of[a]] = support[a];
+        for (int a = 0; a < 3; ++a) {
+            Vec3d v = c.K * Vec3d(R(0, a), R(1, a), R(2, a));
+            v = v / norm(v);
+            if (v[2] < 0) v = -v;
+            c.vanishing_points[a] = v;
+        }
+        c.rms_px = ninl ? std::sqrt(s2 / ninl) : 0;
+        const double second = support_len[order[1]];
+        c.confidence = std::min(1.0, inlier_len) * std::min(1.0, second / 0.1) *
+                       std::min(1.0, support[order[1]] / 4.0);
+        mp.score = fr.score;
+        const double share = std::pow(fr.score / uniq[0].score, gamma) / zsum;
+        mp.confidence = c.confidence * share;
+        for (size_t j = 0; j < uniq.size(); ++j)
+            if (j != k && uniq[j].score > 0.9 * fr.score && uniq[j].score < fr.score / 0.9)
+                mp.ambiguous = true;
+        if (mp.ambiguous)
+            mp.note = "another Manhattan frame scores within 10 %; check both";
+        else if (c.confidence < p.min_confidence)
+            mp.note = format(
+                "weak: %.0f %% of the segments' length explained, %d/%d/%d segments "
+                "per direction",
+                100 * inlier_len, support[0], support[1], support[2]);
+        out.push_back(mp);
+    }
+    if (out.empty())
+        CV_Error(Error::StsError,
+                 "automatic detection gave " + first_reason + "; annotate the lines by hand");
+    return out;
+}
+
+}  // namespace detail
+}  // namespace vbme
+}  // namespace cv

@@ -1,0 +1,278 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Automatic calibration on realistic renders of furnished rooms and corridors (Blender Cycles,
+// scripts/blender/calib_rooms.py; test/data/calib_rooms/truth.csv holds each image's focal
+// length, rotation and radial distortion): focal-length error percentiles and vanishing-
+// direction accuracy AA@3/5/10 of the GLOBAL search, against the previous RANSAC search on the
+// same images; plumb-line distortion k1 on the distorted renders.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <numeric>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/vbme/calib.hpp>
+
+using namespace cv;
+using namespace cv::vbme;
+
+namespace {
+
+struct Truth {
+    std::string name, kind;
+    Size size;
+    double f = 0, k1 = 0;
+    Point2d c;
+    Matx33d R;
+};
+
+std::vector<Truth> readTruth() {
+    const std::string dir = std::string(VBME_TEST_DATA_DIR) + "/calib_rooms/";
+    std::ifstream in(dir + "truth.csv");
+    std::vector<Truth> out;
+    std::string line;
+    std::getline(in, line);  // header
+    while (std::getline(in, line)) {
+        if (line.empty()) continue;
+        std::stringstream ss(line);
+        std::vector<std::string> t;
+        std::string x;
+        while (std::getline(ss, x, ','))
+            t.push_back(x);
+        if (t.size() != 18) continue;
+        Truth tr;
+        tr.name = dir + t[0];
+        tr.kind = t[1];
+        tr.size = Size(std::stoi(t[2]), std::stoi(t[3]));
+        tr.f = std::stod(t[4]);
+        tr.c = Point2d(std::stod(t[5]), std::stod(t[6]));
+        tr.k1 = std::stod(t[7]);
+        for (int k = 0; k < 9; ++k)
+            tr.R(k / 3, k % 3) = std::stod(t[9 + k]);
+        out.push_back(tr);
+    }
+    return out;
+}
+
+/** One method's errors on one image: relative focal error (1 when it failed) and, for each
+true Manhattan direction, the angle (degrees) to the nearest estimated vanishing point seen
+through the true intrinsics (90 when it failed). */
+struct Outcome {
+    bool ok = false;
+    double focal_err = 1;
+    double dir_err[3] = {90, 90, 90};
+    double confidence = 0;
+    double k1 = 0;
+    std::string error;
+};
+
+Outcome evaluate(const Truth& t, const FrameCalibration& fc) {
+    Outcome o;
+    o.ok = true;
+    o.focal_err = std::abs(fc.focal() / t.f - 1);
+    const Matx33d K(t.f, 0, t.c.x, 0, t.f, t.c.y, 0, 0, 1);
+    const Matx33d Kinv = K.inv();
+    for (int a = 0; a < 3; ++a) {
+        const Vec3d g(t.R(0, a), t.R(1, a), t.R(2, a));
+        double best = 90;
+        for (int b = 0; b < 3; ++b) {
+            const Vec3d d = normalize(Kinv * fc.vanishing_points[b]);
+            best = std::min(best, std::acos(std::min(1.0, std::abs(d.dot(g)))) * 180 / CV_PI);
+        }
+        o.dir_err[a] = best;
+    }
+    o.confidence = fc.confidence;
+    o.k1 = fc.k1;
+    return o;
+}
+
+/** Area under the recall curve of the angular errors up to @p t degrees, in percent. */
+double aa(const std::vector<double>& e, double t) {
+    double s = 0;
+    for (double x : e)
+        s += std::max(0.0, t - x);
+    return 100 * s / (t * e.size());
+}
+
+double percentile(std::vector<double> v, double q) {
+    std::sort(v.begin(), v.end());
+    const double pos = q * (v.size() - 1);
+    const size_t i = (size_t)pos;
+    return i + 1 < v.size() ? v[i] + (pos - i) * (v[i + 1] - v[i]) : v.back();
+}
+
+struct Summary {
+    double p50 = 0, p75 = 0, p90 = 0, aa3 = 0, aa5 = 0, aa10 = 0;
+    int failed = 0, over10 = 0;
+};
+
+Summary summarise(const std::vector<Outcome>& o) {
+    Summary s;
+    std::vector<double> fe, de;
+    for (const auto& x : o) {
+        fe.push_back(x.focal_err);
+        for (double d : x.dir_err)
+            de.push_back(d);
+        s.failed += !x.ok;
+        s.over10 += x.focal_err > 0.1;
+    }
+    s.p50 = 100 * percentile(fe, 0.5);
+    s.p75 = 100 * percentile(fe, 0.75);
+    s.p90 = 100 * percentile(fe, 0.9);
+    s.aa3 = aa(de, 3);
+    s.aa5 = aa(de, 5);
+    s.aa10 = aa(de, 10);
+    return s;
+}
+
+void print(const char* name, const Summary& s, size_t n) {
+    std::printf(
+        "%-8s focal error median %.2f %%, p75 %.2f %%, p90 %.2f %%; >10 %%: %d of %d; failed %d; "
+        "AA@3/5/10 %.1f / %.1f / %.1f\n",
+        name, s.p50, s.p75, s.p90, s.over10, (int)n, s.failed, s.aa3, s.aa5, s.aa10);
+}
+
+/** Every image is processed once (both methods, proposals, distortion), then the tests look
+at the results. */
+struct Results {
+    std::vector<Truth> plain, distorted;
+    std::vector<Outcome> global, ransac, dist_k1, dist_nok1;
+    // Confidence of proposals that are right (focal within 5 %, directions within 3°) and wrong.
+    std::vector<double> conf_right, conf_wrong;
+    int ambiguous = 0;
+};
+
+const Results& results() {
+    static const Results r = [] {
+        Results r;
+        for (const auto& t : readTruth())
+            (t.k1 == 0 ? r.plain : r.distorted).push_back(t);
+        VanishingPointCalibrator::Params pg, pr;
+        pr.method = VanishingPointCalibrator::Params::RANSAC;
+        auto cal_g = VanishingPointCalibrator::create(pg);
+        auto cal_r = VanishingPointCalibrator::create(pr);
+        for (const auto& t : r.plain) {
+            const Mat img = imread(t.name, IMREAD_COLOR);
+            if (img.empty()) ADD_FAILURE() << "cannot read " << t.name;
+            Outcome og, orr;
+            try {
+                const auto props = detectManhattanProposals(img, pg, 3);
+                og = evaluate(t, props[0].calibration);
+                if (const char* dump = std::getenv("VBME_CALIB_ROOMS_DUMP")) {
+                    // Segments coloured by world axis (x red, y green, z blue, outliers grey).
+                    Mat ov = img.clone();
+                    const FrameCalibration& c = props[0].calibration;
+                    const Scalar col[4] = {Scalar(128, 128, 128), Scalar(0, 0, 255),
+                                           Scalar(0, 255, 0), Scalar(255, 0, 0)};
+                    for (size_t i = 0; i < c.segments.size(); ++i)
+                        line(ov, Point2f(c.segments[i][0], c.segments[i][1]),
+                             Point2f(c.segments[i][2], c.segments[i][3]), col[c.labels[i] + 1], 2);
+                    const std::string base = t.name.substr(t.name.rfind('/') + 1);
+                    imwrite(std::string(dump) + "/" + base + ".png", ov);
+                }
+                for (const auto& p : props) {
+                    const Outcome o = evaluate(t, p.calibration);
+                    const bool right = o.focal_err < 0.05 &&
+                                       std::max({o.dir_err[0], o.dir_err[1], o.dir_err[2]}) < 3;
+                    (right ? r.conf_right : r.conf_wrong).push_back(p.confidence);
+                    r.ambiguous += p.ambiguous;
+                }
+            } catch (const cv::Exception& e) {
+                og.error = e.err;
+            }
+            try {
+                orr = evaluate(t, cal_r->detect(img));
+            } catch (const cv::Exception& e) {
+                orr.error = e.err;
+            }
+            std::printf(
+                "%s: global f err %.2f %% dir %.2f/%.2f/%.2f conf %.2f | ransac f err "
+                "%.2f %% dir %.2f/%.2f/%.2f %s\n",
+                t.name.substr(t.name.rfind('/') + 1).c_str(), 100 * og.focal_err, og.dir_err[0],
+                og.dir_err[1], og.dir_err[2], og.confidence, 100 * orr.focal_err, orr.dir_err[0],
+                orr.dir_err[1], orr.dir_err[2], (og.error + " " + orr.error).c_str());
+            r.global.push_back(og);
+            r.ransac.push_back(orr);
+        }
+        VanishingPointCalibrator::Params pk = pg;
+        pk.estimate_distortion = true;
+        auto cal_k = VanishingPointCalibrator::create(pk);
+        for (const auto& t : r.distorted) {
+            const Mat img = imread(t.name, IMREAD_COLOR);
+            Outcome ok, on;
+            try {
+                ok = evaluate(t, cal_k->detect(img));
+            } catch (const cv::Exception& e) {
+                ok.error = e.err;
+            }
+            try {
+                on = evaluate(t, cal_g->detect(img));
+            } catch (const cv::Exception& e) {
+                on.error = e.err;
+            }
+            std::printf(
+                "%s: k1 true %.4f estimated %.4f (%.1f %%); focal err %.2f %% with k1, "
+                "%.2f %% without %s\n",
+                t.name.substr(t.name.rfind('/') + 1).c_str(), t.k1, ok.k1,
+                100 * std::abs(ok.k1 / t.k1 - 1), 100 * ok.focal_err, 100 * on.focal_err,
+                (ok.error + " " + on.error).c_str());
+            r.dist_k1.push_back(ok);
+            r.dist_nok1.push_back(on);
+        }
+        return r;
+    }();
+    return r;
+}
+
+TEST(CalibRooms, GlobalSearchMeetsTheAccuracyAimsAndBeatsRansac) {
+    const Results& r = results();
+    ASSERT_GE(r.plain.size(), 20u) << "test/data/calib_rooms/truth.csv missing or short";
+    const Summary g = summarise(r.global), o = summarise(r.ransac);
+    print("global", g, r.plain.size());
+    print("ransac", o, r.plain.size());
+    EXPECT_LE(g.p50, 2.0);
+    EXPECT_GE(g.aa3, 70.0);
+    EXPECT_GE(g.aa5, 88.0);
+    EXPECT_GE(g.aa10, 96.0);
+    // The previous method on the same images, as the baseline.
+    EXPECT_LT(g.p90, o.p90);
+    EXPECT_GT(g.aa5, o.aa5);
+}
+
+TEST(CalibRooms, ConfidenceFallsForWrongProposals) {
+    const Results& r = results();
+    ASSERT_FALSE(r.conf_right.empty());
+    ASSERT_FALSE(r.conf_wrong.empty());
+    auto mean = [](const std::vector<double>& v) {
+        return std::accumulate(v.begin(), v.end(), 0.0) / v.size();
+    };
+    std::printf("proposals: %d right (mean confidence %.3f), %d wrong (mean %.3f), %d ambiguous\n",
+                (int)r.conf_right.size(), mean(r.conf_right), (int)r.conf_wrong.size(),
+                mean(r.conf_wrong), r.ambiguous);
+    EXPECT_LT(mean(r.conf_wrong), 0.5 * mean(r.conf_right));
+}
+
+TEST(CalibRooms, PlumbLineDistortionWithinTenPercent) {
+    const Results& r = results();
+    ASSERT_GE(r.distorted.size(), 4u);
+    std::vector<double> rel, fk, fn;
+    for (size_t i = 0; i < r.distorted.size(); ++i) {
+        rel.push_back(std::abs(r.dist_k1[i].k1 / r.distorted[i].k1 - 1));
+        fk.push_back(r.dist_k1[i].focal_err);
+        fn.push_back(r.dist_nok1[i].focal_err);
+    }
+    std::printf(
+        "distorted renders: k1 relative error median %.1f %%, max %.1f %%; focal error "
+        "median %.2f %% with k1, %.2f %% without\n",
+        100 * percentile(rel, 0.5), 100 * percentile(rel, 1.0), 100 * percentile(fk, 0.5),
+        100 * percentile(fn, 0.5));
+    EXPECT_LE(percentile(rel, 0.5), 0.10);
+    EXPECT_LT(percentile(fk, 0.5), percentile(fn, 0.5));
+}
+
+}  // namespace
