@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -227,4 +229,32 @@ TEST(AppCalibrate, BadInputExitsWith1AndWritesNothing) {
     EXPECT_EQ(r.code, 1) << r.output;
     EXPECT_NE(r.output.find("segments[0]"), std::string::npos) << r.output;
     EXPECT_TRUE(f.nothingWritten());
+}
+
+// A Blender render with known radial distortion (test/data/calib_rooms, see
+// scripts/blender/calib_rooms.py): ranked proposals are printed and k1 is reported.
+TEST(AppCalibrate, AutoProposalsAndDistortionOnARender) {
+    const std::string dir = std::string(VBME_TEST_DATA_DIR) + "/calib_rooms/";
+    std::ifstream in(dir + "truth.csv");
+    std::string line;
+    double k1 = 0;
+    while (std::getline(in, line))
+        if (line.rfind("room_009.jpg,", 0) == 0) {
+            std::stringstream ss(line);
+            std::string x;
+            for (int i = 0; i < 8 && std::getline(ss, x, ','); ++i)
+                if (i == 7) k1 = std::stod(x);
+        }
+    ASSERT_LT(k1, 0) << "room_009.jpg is a distorted render";
+    vbme_test::ScratchDir d;
+    const std::string out = d / "scene.yml";
+    const std::string base = kExe + " calibrate --image " + dir + "room_009.jpg --auto ";
+    EXPECT_EQ(vbme_test::run(base + "--distortion k2 --out " + out).code, 2);
+    const auto r = vbme_test::run(base + "--distortion k1 --proposals 3 --out " + out);
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("proposal 1: focal"), std::string::npos) << r.output;
+    const size_t at = r.output.find("radial distortion k1 ");
+    ASSERT_NE(at, std::string::npos) << r.output;
+    const double est = std::stod(r.output.substr(at + 21));
+    EXPECT_LT(std::abs(est / k1 - 1), 0.1) << r.output;
 }

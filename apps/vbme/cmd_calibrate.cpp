@@ -17,7 +17,9 @@ struct CalibrateOptions {
     std::string image, video, annotation, out, overlay;
     int frame = -1;
     bool auto_detect = false;
-    double camera_height = 0, focal = 0;
+    double camera_height = 0, focal = 0, focal_35mm = 0;
+    std::string distortion, method = "global";
+    int proposals = 0;
     CommonOptions common;
 };
 
@@ -50,6 +52,26 @@ void runCalibrate(const CalibrateOptions& o) {
     opt.auto_detect = o.auto_detect;
     opt.camera_height = o.camera_height;
     opt.vp.focal = o.focal;
+    opt.vp.method = o.method == "ransac" ? VanishingPointCalibrator::Params::RANSAC
+                                         : VanishingPointCalibrator::Params::GLOBAL;
+    if (o.focal_35mm > 0)  // 35 mm equivalent: the 43.27 mm diagonal of a 36×24 mm frame
+        opt.vp.focal_prior = o.focal_35mm / 43.267 * std::hypot(image.cols, image.rows);
+    opt.vp.estimate_distortion = o.distortion == "k1";
+    if (opt.vp.estimate_distortion && !(ann.lines.empty() && o.auto_detect))
+        CV_Error(cv::Error::StsBadArg,
+                 "--distortion k1 is estimated by automatic detection only (--auto without "
+                 "annotated lines)");
+    if (o.proposals > 0 && ann.lines.empty() && o.auto_detect) {
+        // Ranked alternatives for the annotator; the first is the one calibrated below.
+        const auto props = detectManhattanProposals(image, opt.vp, o.proposals);
+        for (size_t i = 0; i < props.size(); ++i) {
+            const FrameCalibration& c = props[i].calibration;
+            std::printf("proposal %d: focal %.1f px, score %.3f, confidence %.2f%s%s%s\n",
+                        (int)i + 1, c.focal(), props[i].score, props[i].confidence,
+                        opt.vp.estimate_distortion ? cv::format(", k1 %.4f", c.k1).c_str() : "",
+                        props[i].note.empty() ? "" : "; ", props[i].note.c_str());
+        }
+    }
     if (o.camera_height <= 0 && ann.camera_height <= 0 && ann.room.empty())
         std::fprintf(stderr,
                      "vbme: warning: camera height unknown; placing the camera %.2f m above the "
@@ -78,6 +100,11 @@ void runCalibrate(const CalibrateOptions& o) {
                 scene.camera.K(0, 0),
                 2 * std::atan2(image.cols * 0.5, scene.camera.K(0, 0)) * 180 / CV_PI,
                 scene.camera.K(0, 2), scene.camera.K(1, 2));
+    if (opt.vp.estimate_distortion)
+        std::printf(
+            "radial distortion k1 %.4f (x_d = x (1 + k1 |x|^2), x = K^-1 p; frames are "
+            "not undistorted by the other commands yet)\n",
+            fc.k1);
     std::printf(
         "camera at (%.3f, %.3f, %.3f) m, heading %.1f deg, elevation %.1f deg; "
         "segments x/y/z %d/%d/%d, rms %.2f px, confidence %.2f\n",
@@ -114,6 +141,20 @@ void setupCalibrate(CLI::App& app) {
         ->check(CLI::PositiveNumber);
     app.add_option("--focal", o->focal, "Known focal length in pixels (default: estimated)")
         ->check(CLI::PositiveNumber);
+    app.add_option("--focal-35mm", o->focal_35mm,
+                   "Focal length prior, 35 mm equivalent (e.g. from EXIF), for --auto")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--distortion", o->distortion,
+                   "Also estimate lens distortion with --auto: 'k1' (one radial coefficient, "
+                   "from the straightness of the lines); reported, not yet applied")
+        ->check(CLI::IsMember({"k1"}));
+    app.add_option("--method", o->method,
+                   "Automatic search: 'global' (exhaustive over vanishing-point candidates, "
+                   "default) or 'ransac' (the previous method)")
+        ->check(CLI::IsMember({"global", "ransac"}));
+    app.add_option("--proposals", o->proposals,
+                   "With --auto: print this many ranked Manhattan frames with confidences")
+        ->check(CLI::Range(1, 10));
     app.add_option("--out", o->out, "Output scene file (.yml or .json)")->required();
     app.add_option("--overlay", o->overlay,
                    "Also write the frame with the box, vanishing points and lights drawn (PNG)");

@@ -97,27 +97,16 @@ std::vector<Piece> mergeCollinear(std::vector<Piece> s) {
 
 void detectSegmentsMerged(const Mat& gray, const VanishingPointCalibrator::Params& p,
                           std::vector<Vec4f>& segments) {
-    // Noisy images (the median absolute Laplacian as a noise estimate) are smoothed and
-    // searched at half resolution, where LSD's gradient test still finds their edges.
-    Mat lap;
-    Laplacian(gray, lap, CV_16S);
-    std::vector<short> v;
-    v.reserve(gray.total() / 4 + 1);
-    for (int y = 0; y < lap.rows; y += 2)
-        for (int x = 0; x < lap.cols; x += 2)
-            v.push_back((short)std::abs(lap.at<short>(y, x)));
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    // A Laplacian of i.i.d. noise σ has standard deviation √20 σ; MAD → σ by 1/0.6745.
-    const double noise = v.empty() ? 0 : v[v.size() / 2] / 0.6745 / std::sqrt(20.0);
-    Mat src = gray;
-    double scale = 0.8;
-    if (noise > 4) {
-        GaussianBlur(gray, src, Size(), 1.0);
-        scale = 0.5;
-    }
-    Ptr<LineSegmentDetector> lsd = createLineSegmentDetector(LSD_REFINE_STD, scale);
+    // Two passes: LSD on the image, and on a smoothed copy at half resolution, where its
+    // gradient test still finds the low-contrast edges of noisy images; the union is merged
+    // below (a line found by both passes becomes one segment).
     std::vector<Vec4f> raw;
-    lsd->detect(src, raw);
+    createLineSegmentDetector(LSD_REFINE_STD, 0.8)->detect(gray, raw);
+    Mat smooth;
+    GaussianBlur(gray, smooth, Size(), 1.0);
+    std::vector<Vec4f> raw2;
+    createLineSegmentDetector(LSD_REFINE_STD, 0.5)->detect(smooth, raw2);
+    raw.insert(raw.end(), raw2.begin(), raw2.end());
     const double diag = std::hypot(gray.cols, gray.rows);
     const double minlen = p.min_segment_length > 0 ? p.min_segment_length : 0.03 * diag;
     // Pieces shorter than a third of the threshold are texture; longer ones may join up.
@@ -591,7 +580,7 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Siz
         c.image_size = size;
         c.K = Matx33d(fpx, 0, pp.x, 0, fpx, pp.y, 0, 0, 1);
         c.R = R;
-        c.k1 = fr.kappa / (fr.F * fr.F);  // κ (units of W) → k1 (units of f)
+        c.k1 = fr.kappa * fr.F * fr.F;  // κ (units of W) → k1 (units of f)
         c.segments = px;
         c.labels.resize(n);
         double s2 = 0;

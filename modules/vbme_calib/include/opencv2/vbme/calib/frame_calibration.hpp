@@ -198,10 +198,10 @@ struct CV_EXPORTS ManhattanProposal {
 
 Line segments (LSD @cite vonGioi2012, collinear pieces merged, short ones dropped) vote for
 vanishing-point candidates (intersections of pairs of the longest segments, scored by a
-robust angular consensus @cite Lezama2014); every pair of candidates gives a frame whose focal
-length follows from orthogonality with the principal point at the centre @cite Caprile1990;
-all pairs are scored, distinct frames are refined jointly (focal, rotation, optionally k1)
-with a Cauchy loss (Ceres) and ranked. The first proposal is what detect() returns.
+robust truncated-quadratic angular consensus @cite Torr2000); every pair of candidates gives a frame
+whose focal length follows from orthogonality with the principal point at the centre @cite
+Caprile1990; all pairs are scored, distinct frames are refined jointly (focal, rotation, optionally
+k1) with a Cauchy loss (Ceres) and ranked. The first proposal is what detect() returns.
 @param image 8-bit gray or BGR.
 @param params settings (method must be GLOBAL).
 @param max_proposals the most proposals returned (≥ 1).
