@@ -159,10 +159,16 @@ TEST(AppFaults, MaterialEditKilledLeavesNoPartialOutputAndRerunIsIdentical) {
         const double at = std::uniform_real_distribution<double>(0.02, 0.98)(rng) * t_ref;
         const bool was_running = killAfter(spawn(cmd(out)), at);
         killed += was_running;
-        if (was_running) {
-            EXPECT_FALSE(fs::exists(out)) << "a partial video under " << out;
+        // nothing under the output name is partial: a kill that lands after the rename (the
+        // process still tearing down, slow under sanitizers) leaves the complete video
+        if (fs::exists(out)) {
+            const std::vector<Mat> v = videoFrames(out);
+            ASSERT_EQ(v.size(), ref_video.size()) << "a partial video under " << out;
+            for (size_t i = 0; i < v.size(); ++i)
+                EXPECT_TRUE(sameImage(v[i], ref_video[i]))
+                    << "seed " << seed << " frame " << i << " of the video left by the kill";
+            fs::remove(out);
         }
-        if (fs::exists(out)) fs::remove(out);
         r = vbme_test::run(cmd(out));
         ASSERT_EQ(r.code, 0) << r.output;
         const std::vector<Mat> v = videoFrames(out);
