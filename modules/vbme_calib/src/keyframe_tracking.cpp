@@ -222,61 +222,97 @@ CameraPath trackCameraKeyframes(const std::vector<Mat>& gray, const Scene& frame
 
     // 1. Keyframes.
     auto t0 = Clock::now();
-    const std::vector<int> keys = selectKeyframes(gray, ko);
+    std::vector<int> keys = selectKeyframes(gray, ko);
     rep.stage_seconds.emplace_back("keyframes", since(t0));
-    rep.keyframes = (int)keys.size();
 
     // 2. COLMAP on the keyframes (resumable: the same keyframes with a finished run are reused).
     const fs::path work(work_dir), kdir = work / "keyframes";
     std::error_code ec;
     fs::create_directories(work, ec);
     if (ec) CV_Error(Error::StsError, "cannot create '" + work.string() + "': " + ec.message());
-    std::ostringstream key_list;
-    key_list << ko.sift_features << " " << ko.overlap << " " << opt.colmap.random_seed << " "
-             << opt.colmap.vocab_tree << ":";
-    for (int k : keys)
-        key_list << " " << k;
-    const fs::path done = work / "colmap_complete.txt";
-    std::vector<ColmapModel> models;
-    {
-        std::ifstream in(done.string());
-        std::string line;
-        if (std::getline(in, line) && line == key_list.str())
-            for (const auto& e : fs::directory_iterator(work / "sparse_txt", ec))
-                if (e.is_directory()) models.push_back(ColmapModel::readText(e.path().string()));
-    }
-    if (models.empty()) {
-        fs::remove(done, ec);
-        fs::remove_all(kdir, ec);
-        fs::create_directories(kdir, ec);
-        for (int k : keys)
-            imwriteAtomic((kdir / frameName(k)).string(), gray[k]);
-        std::printf("camera tracking: %zu keyframes of %d frames; running COLMAP (log: %s)\n",
-                    keys.size(), n, (work / "colmap.log").string().c_str());
-        std::fflush(stdout);
-        ColmapOptions co = opt.colmap;
-        co.max_num_features = ko.sift_features;
-        co.overlap = ko.overlap;
-        // Few images with fewer features: keep small models (the one holding frame 0 is used)
-        // and register keyframes seen through a fast pan on fewer points.
-        co.min_model_size = std::min(co.min_model_size, 3);
-        co.abs_pose_min_num_inliers = std::min(co.abs_pose_min_num_inliers, 15);
-        models = runColmapSfM(kdir.string(), work_dir, frame0.camera.K, frame0.image_size, co,
-                              &rep.stage_seconds);
-        std::ofstream(done.string()) << key_list.str() << "\n";
-    } else {
-        rep.stage_seconds.emplace_back("colmap (reused)", 0.0);
-    }
+    // COLMAP's mapper can fail to initialise, or leave frame 0 out, on keyframes that are too
+    // sparse for it (it varies from run to run): then the gaps are halved and COLMAP runs again,
+    // up to twice, before the failure is reported.
     std::vector<std::string> names;
     for (int i = 0; i < n; ++i)
         names.push_back(frameName(i));
+    std::vector<ColmapModel> models;
     const ColmapModel* model = nullptr;
-    for (const auto& m : models)
-        if (!model && m.imageByName(names[0])) model = &m;
+    for (int attempt = 0;; ++attempt) {
+        const bool can_retry = attempt < 2 && (int)keys.size() < n;
+        try {
+            std::ostringstream key_list;
+            key_list << ko.sift_features << " " << ko.overlap << " " << opt.colmap.random_seed
+                     << " " << opt.colmap.vocab_tree << ":";
+            for (int k : keys)
+                key_list << " " << k;
+            const fs::path done = work / "colmap_complete.txt";
+            models.clear();
+            {
+                std::ifstream in(done.string());
+                std::string line;
+                if (std::getline(in, line) && line == key_list.str())
+                    for (const auto& e : fs::directory_iterator(work / "sparse_txt", ec))
+                        if (e.is_directory())
+                            models.push_back(ColmapModel::readText(e.path().string()));
+            }
+            if (models.empty()) {
+                fs::remove(done, ec);
+                fs::remove_all(kdir, ec);
+                fs::create_directories(kdir, ec);
+                for (int k : keys)
+                    imwriteAtomic((kdir / frameName(k)).string(), gray[k]);
+                std::printf(
+                    "camera tracking: %zu keyframes of %d frames; running COLMAP (log: %s)\n",
+                    keys.size(), n, (work / "colmap.log").string().c_str());
+                std::fflush(stdout);
+                ColmapOptions co = opt.colmap;
+                co.max_num_features = ko.sift_features;
+                co.overlap = ko.overlap;
+                // Few images with fewer features: keep small models (the one holding frame 0 is
+                // used) and register keyframes seen through a fast pan on fewer points.
+                co.min_model_size = std::min(co.min_model_size, 3);
+                co.abs_pose_min_num_inliers = std::min(co.abs_pose_min_num_inliers, 15);
+                models = runColmapSfM(kdir.string(), work_dir, frame0.camera.K, frame0.image_size,
+                                      co, &rep.stage_seconds);
+                std::ofstream(done.string()) << key_list.str() << "\n";
+            } else {
+                rep.stage_seconds.emplace_back("colmap (reused)", 0.0);
+            }
+            model = nullptr;
+            for (const auto& m : models)
+                if (!model && m.imageByName(names[0])) model = &m;
+            if (!model && !can_retry)
+                CV_Error(Error::StsError, "COLMAP did not register frame 0 in any of its " +
+                                              std::to_string(models.size()) + " model(s); see " +
+                                              (work / "colmap.log").string());
+        } catch (const cv::Exception& e) {
+            if (!can_retry) throw;
+            std::printf("camera tracking: COLMAP failed on %zu keyframes: %s\n", keys.size(),
+                        e.err.c_str());
+        }
+        if (model) break;
+        if (!can_retry) break;
+        // halve every gap between keyframes
+        std::vector<int> denser;
+        for (size_t k = 0; k < keys.size(); ++k) {
+            denser.push_back(keys[k]);
+            if (k + 1 < keys.size() && keys[k + 1] - keys[k] > 1)
+                denser.push_back((keys[k] + keys[k + 1]) / 2);
+        }
+        if (denser.size() == keys.size()) break;
+        std::printf(
+            "camera tracking: no model holds frame 0 with %zu keyframes; retrying with "
+            "%zu\n",
+            keys.size(), denser.size());
+        keys = denser;
+    }
     if (!model)
-        CV_Error(Error::StsError, "COLMAP did not register frame 0 in any of its " +
-                                      std::to_string(models.size()) + " model(s); see " +
-                                      (work / "colmap.log").string());
+        CV_Error(Error::StsError,
+                 "COLMAP did not reconstruct frame 0 even with denser keyframes; "
+                 "see " +
+                     (work / "colmap.log").string());
+    rep.keyframes = (int)keys.size();
 
     // 3. Alignment to the room (and refinement) of the keyframes.
     t0 = Clock::now();
