@@ -126,9 +126,11 @@ DemoResult runInsertionDemo(const DemoContext& ctx) {
             worst = std::max(worst, rotationErrorDeg(est.R, truth[i].R));
         }
         result.figures.push_back(format(
-            "camera tracking (COLMAP): %d/%d frames registered, position RMS error %.1f "
-            "mm, worst rotation error %.3f deg, reprojection %.2f px, %.1f s",
-            trep.registered, trep.frames, 1000 * std::sqrt(ate2 / std::max<size_t>(n, 1)), worst,
+            "camera tracking (COLMAP keyframes + PnP): %d/%d frames registered (%d by SfM, %d by "
+            "PnP), position RMS error %.1f mm, worst rotation error %.3f deg, reprojection %.2f "
+            "px, %.1f s",
+            trep.registered + trep.pnp, trep.frames, trep.registered, trep.pnp,
+            1000 * std::sqrt(ate2 / std::max<size_t>(n, 1)), worst,
             trep.refined_rms > 0 ? trep.refined_rms : trep.reprojection_rms, track_s));
     }
 
