@@ -14,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "feature_homography.hpp"
 #include "opencv2/vbme/inpaint/consensus.hpp"
 
 namespace cv {
@@ -286,23 +287,7 @@ private:
 
     /** Homography from frame a's pixels to frame b's (identity if it cannot be estimated). */
     Mat estimate(const CFrame& a, const CFrame& b) {
-        Mat H;
-        if (a.descriptors.rows >= 8 && b.descriptors.rows >= 8) {
-            BFMatcher matcher(NORM_HAMMING);
-            std::vector<std::vector<DMatch>> knn;
-            matcher.knnMatch(a.descriptors, b.descriptors, knn, 2);
-            std::vector<Point2f> pa, pb;
-            for (const auto& m : knn)
-                if (m.size() == 2 && m[0].distance < 0.8f * m[1].distance) {
-                    pa.push_back(a.keypoints[m[0].queryIdx].pt);
-                    pb.push_back(b.keypoints[m[0].trainIdx].pt);
-                }
-            if (pa.size() >= 12) {
-                std::vector<uchar> inl;
-                H = findHomography(pa, pb, RANSAC, 2.0, inl, 2000, 0.999);
-                if (!H.empty() && countNonZero(inl) < 12) H.release();
-            }
-        }
+        Mat H = detail::featureHomography(a.keypoints, a.descriptors, b.keypoints, b.descriptors);
         if (H.empty()) return Mat::eye(3, 3, CV_64F);
         // Sub-pixel refinement: corners of a tracked into b by pyramidal Lucas-Kanade from the
         // positions H predicts, and a homography fitted to them.

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "feature_homography.hpp"
 #include "opencv2/vbme/inpaint/video.hpp"
 
 namespace cv {
@@ -161,22 +162,7 @@ private:
         Frame& fs = frame(s);
         ensureFeatures(ft);
         ensureFeatures(fs);
-        if (ft.descriptors.rows >= 8 && fs.descriptors.rows >= 8) {
-            BFMatcher matcher(NORM_HAMMING);
-            std::vector<std::vector<DMatch>> knn;
-            matcher.knnMatch(fs.descriptors, ft.descriptors, knn, 2);
-            std::vector<Point2f> a, b;
-            for (const auto& m : knn)
-                if (m.size() == 2 && m[0].distance < 0.8f * m[1].distance) {
-                    a.push_back(fs.keypoints[m[0].queryIdx].pt);
-                    b.push_back(ft.keypoints[m[0].trainIdx].pt);
-                }
-            if (a.size() >= 12) {
-                std::vector<uchar> inl;
-                H = findHomography(a, b, RANSAC, 2.0, inl, 2000, 0.999);
-                if (!H.empty() && countNonZero(inl) < 12) H.release();
-            }
-        }
+        H = detail::featureHomography(fs.keypoints, fs.descriptors, ft.keypoints, ft.descriptors);
         if (!H.empty() && p_.refine_alignment && !nearIdentity(H, size_, p_.identity_tolerance)) {
             // Sub-pixel refinement: corners of frame s tracked into frame t by pyramidal
             // Lucas-Kanade from the positions H predicts, then a homography fitted to them.
