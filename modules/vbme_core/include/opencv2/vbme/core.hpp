@@ -18,6 +18,7 @@ temporary name and renamed when complete, and progress reporting for long work.
 #include "opencv2/vbme/core/progress.hpp"
 #include "opencv2/vbme/core/response.hpp"
 #include "opencv2/vbme/core/scene.hpp"
+#include "opencv2/vbme/core/utility.hpp"
 #include "opencv2/vbme/core/video.hpp"
 #include "opencv2/vbme/version.hpp"
 
