@@ -1,6 +1,6 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see
 // LICENSE).
-#include "opencv2/vbme/calib/synthetic_sequence.hpp"
+#include "opencv2/vbme/datasets/room_sequence.hpp"
 
 #include <cmath>
 

@@ -1,7 +1,7 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see
 // LICENSE).
-#ifndef OPENCV_VBME_CALIB_SYNTHETIC_SEQUENCE_HPP
-#define OPENCV_VBME_CALIB_SYNTHETIC_SEQUENCE_HPP
+#ifndef OPENCV_VBME_DATASETS_ROOM_SEQUENCE_HPP
+#define OPENCV_VBME_DATASETS_ROOM_SEQUENCE_HPP
 
 #include <map>
 #include <string>
@@ -13,7 +13,7 @@
 namespace cv {
 namespace vbme {
 
-//! @addtogroup vbme_calib
+//! @addtogroup vbme_datasets
 //! @{
 
 /** @brief Procedural textures for the six faces of a room (8-bit BGR,

@@ -1,5 +1,5 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-#include "opencv2/vbme/pipeline/synthetic_ball.hpp"
+#include "opencv2/vbme/datasets/rendered_ball_clip.hpp"
 
 #include <atomic>
 #include <chrono>

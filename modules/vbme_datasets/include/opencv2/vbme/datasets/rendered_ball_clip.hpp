@@ -1,6 +1,6 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-#ifndef OPENCV_VBME_PIPELINE_SYNTHETIC_BALL_HPP
-#define OPENCV_VBME_PIPELINE_SYNTHETIC_BALL_HPP
+#ifndef OPENCV_VBME_DATASETS_RENDERED_BALL_CLIP_HPP
+#define OPENCV_VBME_DATASETS_RENDERED_BALL_CLIP_HPP
 
 #include <memory>
 #include <string>
@@ -13,7 +13,7 @@
 namespace cv {
 namespace vbme {
 
-//! @addtogroup vbme_pipeline
+//! @addtogroup vbme_datasets
 //! @{
 
 /** @brief A clip rendered with vbme_render: a coloured (Lambertian) ball rolling on a textured
