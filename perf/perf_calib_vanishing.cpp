@@ -6,6 +6,7 @@
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/vbme/calib.hpp>
+#include <opencv2/vbme/datasets/room.hpp>
 
 using namespace cv;
 using namespace cv::vbme;

@@ -15,8 +15,8 @@
 #include <string>
 
 #include <opencv2/vbme/core.hpp>
+#include <opencv2/vbme/datasets/rendered_ball_clip.hpp>
 #include <opencv2/vbme/pipeline/material_edit.hpp>
-#include <opencv2/vbme/pipeline/synthetic_ball.hpp>
 
 using namespace cv;
 using namespace cv::vbme;

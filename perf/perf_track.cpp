@@ -6,6 +6,7 @@
 #include <benchmark/benchmark.h>
 
 #include <opencv2/imgproc.hpp>
+#include <opencv2/vbme/datasets/ball_clip.hpp>
 #include <opencv2/vbme/track.hpp>
 
 using namespace cv;

@@ -11,6 +11,7 @@
 #include <cstdlib>
 
 #include <opencv2/vbme/calib.hpp>
+#include <opencv2/vbme/datasets/room_sequence.hpp>
 
 using namespace cv;
 using namespace cv::vbme;

@@ -11,6 +11,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/vbme/datasets/ball_clip.hpp>
 #include <opencv2/vbme/track.hpp>
 
 using namespace cv;

@@ -11,6 +11,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/vbme/calib.hpp>
+#include <opencv2/vbme/datasets/room.hpp>
 
 #include "vbme_test_util.hpp"
 

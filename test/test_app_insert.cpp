@@ -7,9 +7,9 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/vbme/calib/synthetic.hpp>
-#include <opencv2/vbme/calib/synthetic_sequence.hpp>
 #include <opencv2/vbme/core.hpp>
+#include <opencv2/vbme/datasets/room.hpp>
+#include <opencv2/vbme/datasets/room_sequence.hpp>
 
 #include "test_render_util.hpp"
 #include "vbme_test_util.hpp"

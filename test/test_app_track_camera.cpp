@@ -84,6 +84,7 @@ TEST(AppTrackCamera, MissingSceneIsBadInput) {
 #include <fstream>
 
 #include <opencv2/vbme/calib.hpp>
+#include <opencv2/vbme/datasets/room_sequence.hpp>
 
 TEST(AppTrackCamera, TracksAVideoWithStrideAndResumes) {
     if (vbme_test::run("colmap help").code != 0)

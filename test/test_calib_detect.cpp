@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/vbme/calib.hpp>
+#include <opencv2/vbme/datasets/room.hpp>
 
 using namespace cv;
 using namespace cv::vbme;

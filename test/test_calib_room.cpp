@@ -8,6 +8,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/vbme/calib.hpp>
+#include <opencv2/vbme/calib/projection.hpp>
+#include <opencv2/vbme/datasets/room.hpp>
 
 #include "vbme_test_util.hpp"
 

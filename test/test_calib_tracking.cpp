@@ -11,7 +11,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/vbme/calib/camera_tracking.hpp>
-#include <opencv2/vbme/calib/synthetic_sequence.hpp>
+#include <opencv2/vbme/datasets/room_sequence.hpp>
 
 #include "vbme_test_util.hpp"
 

@@ -10,7 +10,7 @@
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/vbme/calib/camera_tracking.hpp>
-#include <opencv2/vbme/calib/synthetic_sequence.hpp>
+#include <opencv2/vbme/datasets/room_sequence.hpp>
 
 #include "vbme_test_util.hpp"
 

@@ -11,8 +11,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/vbme/calib.hpp>
+#include <opencv2/vbme/datasets/insertion_sequence.hpp>
 #include <opencv2/vbme/pipeline/insertion.hpp>
-#include <opencv2/vbme/pipeline/synthetic_insertion.hpp>
 
 #include "vbme_test_util.hpp"
 

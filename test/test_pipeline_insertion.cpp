@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/vbme/calib/synthetic_sequence.hpp>
+#include <opencv2/vbme/datasets/room_sequence.hpp>
 #include <opencv2/vbme/pipeline/insertion.hpp>
 #include <opencv2/vbme/render.hpp>
 

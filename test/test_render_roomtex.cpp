@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/vbme/calib.hpp>
+#include <opencv2/vbme/datasets/room_sequence.hpp>
 #include <opencv2/vbme/render.hpp>
 
 #include "vbme_test_util.hpp"

@@ -16,6 +16,7 @@
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/vbme/datasets.hpp>
 #include <opencv2/vbme/track.hpp>
 #if __has_include(<opencv2/vbme/render.hpp>)
 #include <opencv2/vbme/render.hpp>
@@ -24,7 +25,6 @@
 #if __has_include(<opencv2/vbme/calib/camera_tracking.hpp>)
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/vbme/calib/camera_tracking.hpp>
-#include <opencv2/vbme/calib/synthetic_sequence.hpp>
 #define VBME_BENCH_CALIB 1
 #endif
 #if __has_include(<opencv2/vbme/pipeline.hpp>)

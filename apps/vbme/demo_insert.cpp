@@ -12,8 +12,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/vbme/calib.hpp>
+#include <opencv2/vbme/datasets/insertion_sequence.hpp>
 #include <opencv2/vbme/pipeline/insertion.hpp>
-#include <opencv2/vbme/pipeline/synthetic_insertion.hpp>
 
 #include "demo.hpp"
 

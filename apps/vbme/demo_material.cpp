@@ -11,8 +11,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/vbme/core.hpp>
+#include <opencv2/vbme/datasets/rendered_ball_clip.hpp>
 #include <opencv2/vbme/pipeline/material_edit.hpp>
-#include <opencv2/vbme/pipeline/synthetic_ball.hpp>
 #include <opencv2/vbme/track.hpp>
 
 #include "demo.hpp"

@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/vbme/calib/synthetic.hpp>
+#include <opencv2/vbme/calib/projection.hpp>
 #include <opencv2/vbme/pipeline/insertion.hpp>
 #include <opencv2/vbme/render.hpp>
 

@@ -20,7 +20,6 @@ with Ceres in the room frame (camera_tracking.hpp).
 #include "opencv2/vbme/calib/frame_calibration.hpp"
 #include "opencv2/vbme/calib/camera_tracking.hpp"
 #include "opencv2/vbme/calib/colmap.hpp"
-#include "opencv2/vbme/calib/synthetic.hpp"
-#include "opencv2/vbme/calib/synthetic_sequence.hpp"
+#include "opencv2/vbme/calib/projection.hpp"
 
 #endif

@@ -17,7 +17,5 @@ material-edit` and `vbme insert` commands are thin wrappers around them.
 #include "opencv2/vbme/pipeline/insertion.hpp"
 #include "opencv2/vbme/pipeline/material_edit.hpp"
 #include "opencv2/vbme/pipeline/report.hpp"
-#include "opencv2/vbme/pipeline/synthetic_ball.hpp"
-#include "opencv2/vbme/pipeline/synthetic_insertion.hpp"
 
 #endif

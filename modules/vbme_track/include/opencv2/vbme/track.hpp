@@ -16,7 +16,6 @@ See doc/vbme_track.md for a tutorial.
 #include "opencv2/vbme/track/disk.hpp"
 #include "opencv2/vbme/track/object_tracker.hpp"
 #include "opencv2/vbme/track/shape.hpp"
-#include "opencv2/vbme/track/synthetic.hpp"
 #include "opencv2/vbme/track/video_tracking.hpp"
 
 #endif

@@ -1,6 +1,6 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-#ifndef OPENCV_VBME_PIPELINE_SYNTHETIC_INSERTION_HPP
-#define OPENCV_VBME_PIPELINE_SYNTHETIC_INSERTION_HPP
+#ifndef OPENCV_VBME_DATASETS_INSERTION_SEQUENCE_HPP
+#define OPENCV_VBME_DATASETS_INSERTION_SEQUENCE_HPP
 
 #include <string>
 #include <vector>
@@ -13,7 +13,7 @@
 namespace cv {
 namespace vbme {
 
-//! @addtogroup vbme_pipeline
+//! @addtogroup vbme_datasets
 //! @{
 
 /** @brief Writes a smooth closed tube along a (2, 3) torus knot (a trefoil lying flat) as a
@@ -34,12 +34,6 @@ meets it, turned by @p yaw_rad about the vertical. Throws cv::Exception when the
 go down to the floor. */
 CV_EXPORTS Matx44d floorPlacement(const Camera& camera, const Room& room, Point2d px,
                                   double yaw_rad = 0);
-
-/** @brief PSNR (dB, peak 255) of two 8-bit images over the pixels where @p region is non-zero
-(all pixels when empty); +inf when they are equal there. Also returns the sum of squared
-errors and the count of values through @p sse and @p count (for pooling over frames). */
-CV_EXPORTS double regionPsnr(InputArray a, InputArray b, InputArray region = noArray(),
-                             double* sse = nullptr, double* count = nullptr);
 
 /** @brief A synthetic hand-held video of a textured room, with the annotation a user would
 give, for object insertion with a known answer (the `vbme demo` input and the end-to-end

@@ -1,6 +1,6 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-#ifndef OPENCV_VBME_CALIB_SYNTHETIC_HPP
-#define OPENCV_VBME_CALIB_SYNTHETIC_HPP
+#ifndef OPENCV_VBME_DATASETS_ROOM_HPP
+#define OPENCV_VBME_DATASETS_ROOM_HPP
 
 #include <opencv2/core.hpp>
 #include <opencv2/vbme/core.hpp>
@@ -8,7 +8,7 @@
 namespace cv {
 namespace vbme {
 
-//! @addtogroup vbme_calib
+//! @addtogroup vbme_datasets
 //! @{
 
 /** @brief Draws a box room seen by a camera inside it, for tests, benchmarks and demos.
@@ -25,11 +25,6 @@ drawing are used: the picture is an independent oracle for the calibration code.
 @return 8-bit BGR image. */
 CV_EXPORTS Mat drawSyntheticRoom(const Camera& camera, const Room& room, double tile = 0.5,
                                  double noise_sigma = 0, int seed = 0);
-
-/** @brief Projects a world segment clipped to the part in front of the camera
-(z_cam ≥ @p near). Returns false if nothing is in front. */
-CV_EXPORTS bool projectSegment(const Camera& camera, const Vec3d& a, const Vec3d& b, Point2d& pa,
-                               Point2d& pb, double near = 0.01);
 
 //! @}
 

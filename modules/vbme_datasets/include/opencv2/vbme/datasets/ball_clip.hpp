@@ -1,6 +1,6 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-#ifndef OPENCV_VBME_TRACK_SYNTHETIC_HPP
-#define OPENCV_VBME_TRACK_SYNTHETIC_HPP
+#ifndef OPENCV_VBME_DATASETS_BALL_CLIP_HPP
+#define OPENCV_VBME_DATASETS_BALL_CLIP_HPP
 
 #include <opencv2/core.hpp>
 
@@ -9,7 +9,7 @@
 namespace cv {
 namespace vbme {
 
-//! @addtogroup vbme_track
+//! @addtogroup vbme_datasets
 //! @{
 
 /** @brief A synthetic clip with exact ground truth for the tracker: a shaded coloured ball

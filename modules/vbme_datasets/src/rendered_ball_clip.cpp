@@ -1,5 +1,5 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-#include "opencv2/vbme/pipeline/synthetic_ball.hpp"
+#include "opencv2/vbme/datasets/rendered_ball_clip.hpp"
 
 #include <atomic>
 #include <chrono>
@@ -230,6 +230,10 @@ RenderedBallClip::RenderedBallClip(const Params& p) : impl_(std::make_shared<Imp
     for (int c = 0; c < 3; ++c)
         if (!(p.albedo[c] >= 0 && p.albedo[c] <= 1))
             CV_Error(Error::StsBadArg, "RenderedBallClip: albedo components must lie in [0, 1]");
+    if (p.has_material && p.material.type == Material::EMISSIVE)
+        CV_Error(Error::StsBadArg,
+                 "RenderedBallClip: the ball cannot be emissive (expected a reflecting or "
+                 "refracting material)");
     if (!(norm(p.to_light) > 0) || !(p.to_light[2] > 0.1 * norm(p.to_light)))
         CV_Error(Error::StsBadArg,
                  "RenderedBallClip: to_light must point above the floor (z > 0.1·|to_light|)");
@@ -336,8 +340,12 @@ Scene RenderedBallClip::scene(int frame) const {
     SceneObject ball;
     ball.mesh = (impl_->dir / "ball.obj").string();
     ball.has_material = true;
-    ball.material.type = Material::LAMBERTIAN;
-    ball.material.albedo = p.albedo;
+    if (p.has_material) {
+        ball.material = p.material;
+    } else {
+        ball.material.type = Material::LAMBERTIAN;
+        ball.material.albedo = p.albedo;
+    }
     Matx44d W = Matx44d::eye();
     for (int r = 0; r < 3; ++r) {
         for (int k = 0; k < 3; ++k)

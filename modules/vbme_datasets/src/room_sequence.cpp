@@ -1,11 +1,14 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see
 // LICENSE).
-#include "opencv2/vbme/calib/synthetic_sequence.hpp"
+#include "opencv2/vbme/datasets/room_sequence.hpp"
 
 #include <cmath>
+#include <limits>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/vbme/render/scene.hpp>
+#include <opencv2/vbme/render/texture.hpp>
 
 namespace cv {
 namespace vbme {
@@ -58,16 +61,29 @@ Mat renderTexturedRoom(const Camera& cam, const Room& room,
     for (int a = 0; a < 3; ++a)
         if (!(c[a] > room.min[a] && c[a] < room.max[a]))
             CV_Error(Error::StsBadArg, "renderTexturedRoom: the camera is outside the room");
-    const std::vector<std::string>& faces =
-        Room::faceNames();  // floor, ceiling, left, right, front, back
-    std::vector<Mat> tex(6);
-    for (int f = 0; f < 6; ++f) {
+    // vbme_render's room (its box geometry and face texture coordinates) without texture
+    // files: rays are cast into it and each face's texture is looked up at the hit's (u, v).
+    Scene scene;
+    scene.image_size = cam.image_size;
+    scene.camera = cam;
+    scene.has_room = true;
+    scene.room.min = room.min;
+    scene.room.max = room.max;
+    const Ptr<RenderScene> rs = RenderScene::create(scene);
+    const std::vector<std::string>& faces = Room::faceNames();
+    std::vector<Ptr<Texture>> tex(faces.size());
+    for (size_t f = 0; f < faces.size(); ++f) {
         auto it = textures.find(faces[f]);
-        if (it != textures.end()) it->second.convertTo(tex[f], CV_32FC3);
+        if (it == textures.end() || it->second.empty()) continue;
+        Mat t;
+        it->second.convertTo(t, CV_32F);  // 8-bit levels, looked up as they are
+        tex[f] = Texture::createImage(t, Texture::WRAP_CLAMP);
     }
+    const Vec3f o(c);
     const Matx33d Kinv = cam.K.inv(), Rt = cam.R.t();
     Mat out(cam.image_size, CV_8UC3);
     parallel_for_(Range(0, out.rows), [&](const Range& rows) {
+        SurfaceHit hit;
         for (int y = rows.start; y < rows.end; ++y)
             for (int x = 0; x < out.cols; ++x) {
                 Vec3d sum(0, 0, 0);
@@ -75,54 +91,18 @@ Mat renderTexturedRoom(const Camera& cam, const Room& room,
                     for (int sx = 0; sx < supersample; ++sx) {
                         const double px = x - 0.5 + (sx + 0.5) / supersample,
                                      py = y - 0.5 + (sy + 0.5) / supersample;
-                        const Vec3d d = Rt * (Kinv * Vec3d(px, py, 1));
-                        // Exit point of the ray from inside the box.
-                        double tmin = 1e300;
-                        int face = 0;
-                        for (int a = 0; a < 3; ++a) {
-                            if (d[a] == 0) continue;
-                            const double tt =
-                                ((d[a] > 0 ? room.max[a] : room.min[a]) - c[a]) / d[a];
-                            if (tt < tmin) {
-                                tmin = tt;
-                                // floor/ceiling = z (faces 0/1), left/right = x (2/3),
-                                // front/back = y (4/5)
-                                face = a == 2   ? (d[a] > 0 ? 1 : 0)
-                                       : a == 0 ? (d[a] > 0 ? 3 : 2)
-                                                : (d[a] > 0 ? 5 : 4);
-                            }
-                        }
-                        const Vec3d p = c + d * tmin;
-                        const Mat& t = tex[face];
-                        if (t.empty()) {
+                        const Vec3f d(normalize(Rt * (Kinv * Vec3d(px, py, 1))));
+                        // The room's face f is triangles 2f, 2f + 1 (Room::faceNames() order).
+                        const int f =
+                            rs->intersect(o, d, 0.f, std::numeric_limits<float>::max(), hit)
+                                ? hit.prim_id / 2
+                                : -1;
+                        if (f < 0 || !tex[f]) {
                             sum += Vec3d(128, 128, 128);
                             continue;
                         }
-                        int ua, va;  // world axes along columns and rows
-                        if (face <= 1)
-                            ua = 0, va = 1;
-                        else if (face <= 3)
-                            ua = 1, va = 2;
-                        else
-                            ua = 0, va = 2;
-                        double u = (p[ua] - room.min[ua]) / (room.max[ua] - room.min[ua]);
-                        double v = (p[va] - room.min[va]) / (room.max[va] - room.min[va]);
-                        // Upright as seen from inside the room (vbme_render's convention):
-                        // the ceiling's image up is −y, the right wall's image right is −y,
-                        // the front wall's image right is −x.
-                        if (face == 1) v = 1 - v;
-                        if (face == 3 || face == 4) u = 1 - u;
-                        const float tx = float(u * t.cols - 0.5),
-                                    ty = float((1 - v) * t.rows - 0.5);
-                        const int x0 = std::max(0, std::min(t.cols - 2, (int)std::floor(tx)));
-                        const int y0 = std::max(0, std::min(t.rows - 2, (int)std::floor(ty)));
-                        const float fx = std::min(1.f, std::max(0.f, tx - x0)),
-                                    fy = std::min(1.f, std::max(0.f, ty - y0));
-                        const Vec3f a = t.at<Vec3f>(y0, x0), b = t.at<Vec3f>(y0, x0 + 1),
-                                    cc = t.at<Vec3f>(y0 + 1, x0), dd = t.at<Vec3f>(y0 + 1, x0 + 1);
-                        const Vec3f s =
-                            (a * (1 - fx) + b * fx) * (1 - fy) + (cc * (1 - fx) + dd * fx) * fy;
-                        sum += Vec3d(s[0], s[1], s[2]);
+                        const Vec3f rgb = tex[f]->eval(hit.uv);
+                        sum += Vec3d(rgb[2], rgb[1], rgb[0]);  // BGR
                     }
                 sum *= 1.0 / (supersample * supersample);
                 out.at<Vec3b>(y, x) =

@@ -1,6 +1,6 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-#ifndef OPENCV_VBME_PIPELINE_SYNTHETIC_BALL_HPP
-#define OPENCV_VBME_PIPELINE_SYNTHETIC_BALL_HPP
+#ifndef OPENCV_VBME_DATASETS_RENDERED_BALL_CLIP_HPP
+#define OPENCV_VBME_DATASETS_RENDERED_BALL_CLIP_HPP
 
 #include <memory>
 #include <string>
@@ -13,21 +13,23 @@
 namespace cv {
 namespace vbme {
 
-//! @addtogroup vbme_pipeline
+//! @addtogroup vbme_datasets
 //! @{
 
-/** @brief A clip rendered with vbme_render: a coloured (Lambertian) ball rolling on a textured
-floor in front of a textured wall, lit by a known light (a distant light plus an environment),
-static camera, with its ground truth. The input of the material-editing demo, tests and
-benchmarks.
+/** @brief A clip rendered with vbme_render: a ball of any material (coloured Lambertian by
+default; chrome, glass, plastic, … through Params::material) rolling on a textured floor in
+front of a textured wall, lit by a known light (a distant light plus an environment), static
+camera, with its ground truth. The input of the material-editing demo, tests and benchmarks;
+the same clip with another ball material (same scene, lights, path and seeds) is the
+path-traced truth of a material edit.
 
 The scene (world z up, metres): a floor (z = 0, grey and slate tiles) and a wall (x = 1.6,
 facing −x, pale grey-green blocks), both proxy meshes with procedural textures of low
 saturation, so that the ball is separable from them by hue and saturation; a ball of radius
-0.18 m (a smooth UV sphere, material Lambertian `albedo`, the `objects:` mesh) rolling without
-slipping along the floor from (x, y) = (−0.35, 0.55) to (0.15, −0.55) over the clip (its centre
-at z = radius, the mesh turning by distance / radius about the horizontal axis normal to its
-motion); a distant key light of half-angle 2° towards `to_light` (irradiance 2.8 on a surface
+0.18 m (a smooth UV sphere, the `objects:` mesh, material Lambertian `albedo` or
+Params::material) rolling without slipping along the floor from (x, y) = (−0.35, 0.55) to
+(0.15, −0.55) over the clip (its centre at z = radius, the mesh turning by distance / radius
+about the horizontal axis normal to its motion); a distant key light of half-angle 2° towards `to_light` (irradiance 2.8 on a surface
 facing it, warm white) and a constant sky of radiance (0.2, 0.23, 0.28) (RGB). The camera
 stands at (−2.4, 0, 1.2) looking along +x, pitched 25° down, with a 60° horizontal field of
 view, so the ball rolls from the left of the image to the right, away from the camera, and the
@@ -48,19 +50,23 @@ class CV_EXPORTS RenderedBallClip {
 public:
     /** @brief What the clip contains and how it is rendered. */
     struct CV_EXPORTS Params {
-        Params();                                 //!< the defaults below
-        Size size = Size(640, 480);               //!< frame size
-        int frames = 48;                          //!< number of frames
-        int spp = 16;                             //!< samples per pixel
-        double fps = 30;                          //!< frame rate of written videos
-        Vec3d albedo = Vec3d(0.8, 0.25, 0.05);    //!< ball colour (RGB, linear)
+        Params();                               //!< the defaults below
+        Size size = Size(640, 480);             //!< frame size
+        int frames = 48;                        //!< number of frames
+        int spp = 16;                           //!< samples per pixel
+        double fps = 30;                        //!< frame rate of written videos
+        Vec3d albedo = Vec3d(0.8, 0.25, 0.05);  //!< ball colour (RGB, linear)
+        /** @brief true: the ball is #material (any type, e.g. Material::preset("chrome") or
+        "glass", path traced with refraction) instead of a Lambertian of #albedo. */
+        bool has_material = false;
+        Material material;                        //!< the ball's material when #has_material
         Vec3d to_light = Vec3d(-0.4, 0.5, 0.75);  //!< world direction towards the key light
         uint64 seed = 0;                          //!< sampler seed of frame 0
     };
 
     /** @brief Prepares the clip: writes the textures and meshes to a temporary folder. Throws
     cv::Exception if a parameter is out of range (size, frames ≥ 1, spp ≥ 1, albedo in [0,1],
-    to_light pointing above the floor). */
+    to_light pointing above the floor, an emissive material). */
     explicit RenderedBallClip(const Params& p = Params());
     /** @brief The settings. */
     const Params& params() const;

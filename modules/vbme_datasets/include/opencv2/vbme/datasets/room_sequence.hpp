@@ -1,7 +1,7 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see
 // LICENSE).
-#ifndef OPENCV_VBME_CALIB_SYNTHETIC_SEQUENCE_HPP
-#define OPENCV_VBME_CALIB_SYNTHETIC_SEQUENCE_HPP
+#ifndef OPENCV_VBME_DATASETS_ROOM_SEQUENCE_HPP
+#define OPENCV_VBME_DATASETS_ROOM_SEQUENCE_HPP
 
 #include <map>
 #include <string>
@@ -13,7 +13,7 @@
 namespace cv {
 namespace vbme {
 
-//! @addtogroup vbme_calib
+//! @addtogroup vbme_datasets
 //! @{
 
 /** @brief Procedural textures for the six faces of a room (8-bit BGR,
@@ -22,15 +22,15 @@ random discs, boxes and strokes, rich in corners and blobs so that feature-based
 structure-from-motion can follow a camera. Deterministic in @p seed. */
 CV_EXPORTS std::map<std::string, Mat> makeRoomTextures(int seed = 1, int size = 1024);
 
-/** @brief Renders a textured box room as seen from inside by @p camera: every
-pixel's ray is intersected with the box (exact), the face texture is sampled
-bilinearly, @p supersample² rays per pixel are averaged. Albedo only (no
-lighting): an exact image for camera-tracking tests.
+/** @brief Renders a textured box room as seen from inside by @p camera, through vbme_render's
+room: every ray of a @p supersample² grid per pixel is cast into cv::vbme::RenderScene's room box
+and the hit face's texture is looked up bilinearly (cv::vbme::Texture, clamped at the edges) at
+the hit's texture coordinates, in the texture's own 8-bit levels; the rays are averaged. Albedo
+only (no lighting, no noise): an exact image for camera-tracking tests.
 
-Texture orientation: each face shows its image upright as seen from inside the room, as
-vbme_render maps room textures (image right / image up): floor +x / +y, ceiling +x / −y,
-back +x / +z, front −x / +z, left +y / +z, right −y / +z. Faces without a texture
-are mid-grey.
+Texture orientation: vbme_render's (see cv::vbme::RenderScene; image right / image up):
+floor +x / +y, ceiling +x / −y, back +x / +z, front −x / +z, left +y / +z, right −y / +z.
+Faces without a texture are mid-grey. Throws cv::Exception when the camera is outside the room.
 @return 8-bit BGR image of camera.image_size. */
 CV_EXPORTS Mat renderTexturedRoom(const Camera& camera, const Room& room,
                                   const std::map<std::string, Mat>& textures, int supersample = 2);

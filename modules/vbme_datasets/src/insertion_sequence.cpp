@@ -1,17 +1,16 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // A synthetic hand-held room video with the user's annotation and a known answer, for object
 // insertion (vbme demo, end-to-end tests).
-#include "opencv2/vbme/pipeline/synthetic_insertion.hpp"
+#include "opencv2/vbme/datasets/insertion_sequence.hpp"
 
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <limits>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/vbme/calib/synthetic_sequence.hpp>
+#include <opencv2/vbme/datasets/room_sequence.hpp>
 #include <opencv2/vbme/render/integrator.hpp>
 
 namespace cv {
@@ -99,29 +98,6 @@ Matx44d floorPlacement(const Camera& camera, const Room& room, Point2d px, doubl
     const Vec3d p = c + d * ((room.min[2] - c[2]) / d[2]);
     const double cs = std::cos(yaw_rad), sn = std::sin(yaw_rad);
     return Matx44d(cs, -sn, 0, p[0], sn, cs, 0, p[1], 0, 0, 1, room.min[2], 0, 0, 0, 1);
-}
-
-double regionPsnr(InputArray a_, InputArray b_, InputArray region_, double* sse_out,
-                  double* count_out) {
-    const Mat a = a_.getMat(), b = b_.getMat();
-    CV_Assert(a.size() == b.size() && a.type() == b.type() && a.depth() == CV_8U);
-    Mat region = region_.getMat();
-    if (region.empty()) region = Mat(a.size(), CV_8U, Scalar(255));
-    CV_Assert(region.size() == a.size() && region.type() == CV_8UC1);
-    Mat d;
-    absdiff(a, b, d);
-    d.convertTo(d, CV_64F);
-    d = d.mul(d);
-    const double pixels = countNonZero(region);
-    const Scalar m = pixels > 0 ? mean(d, region) : Scalar::all(0);
-    double sse = 0;
-    for (int k = 0; k < a.channels(); ++k)
-        sse += m[k] * pixels;
-    const double count = pixels * a.channels();
-    if (sse_out) *sse_out = sse;
-    if (count_out) *count_out = count;
-    if (count == 0 || sse == 0) return std::numeric_limits<double>::infinity();
-    return 10 * std::log10(255.0 * 255.0 / (sse / count));
 }
 
 namespace {

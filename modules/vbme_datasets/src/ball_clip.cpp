@@ -1,5 +1,5 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-#include "opencv2/vbme/track/synthetic.hpp"
+#include "opencv2/vbme/datasets/ball_clip.hpp"
 
 #include <cmath>
 

@@ -12,7 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/vbme/core.hpp>
-#include <opencv2/vbme/pipeline/synthetic_ball.hpp>
+#include <opencv2/vbme/datasets/rendered_ball_clip.hpp>
 #include <opencv2/vbme/render.hpp>
 #include <opencv2/vbme/track.hpp>
 
@@ -43,7 +43,7 @@ Mat colourMask(const Mat& bgr) {
 
 }  // namespace
 
-TEST(PipelineSyntheticBall, RendersAreDeterministic) {
+TEST(DatasetsRenderedBallClip, RendersAreDeterministic) {
     const RenderedBallClip::Params p = smallClip(Size(160, 120), 3, 4);
     const RenderedBallClip a(p), b(p);
     const Mat fa = a.frame(1), fb = b.frame(1);
@@ -58,7 +58,7 @@ TEST(PipelineSyntheticBall, RendersAreDeterministic) {
     EXPECT_GT(norm(RenderedBallClip(q).frame(1), fa, NORM_L1), 0.0);
 }
 
-TEST(PipelineSyntheticBall, TruthDiskMatchesRenderedSilhouette) {
+TEST(DatasetsRenderedBallClip, TruthDiskMatchesRenderedSilhouette) {
     // Oracle: the renderer's coverage mask (fraction of camera rays whose first hit is the ball),
     // an exact silhouette; the disk differs from it by the ellipse's flattening (< 0.5 px).
     const RenderedBallClip clip(smallClip(Size(320, 240), 9, 1));
@@ -86,7 +86,7 @@ TEST(PipelineSyntheticBall, TruthDiskMatchesRenderedSilhouette) {
     EXPECT_NEAR(clip.focal(), 0.5 * 320 / std::tan(CV_PI / 6), 1e-9);  // 60° horizontal field
 }
 
-TEST(PipelineSyntheticBall, BallShadingPointsToTheKeyLight) {
+TEST(DatasetsRenderedBallClip, BallShadingPointsToTheKeyLight) {
     // Oracle: the rendered shading of the ball. On its lit part, radiance / albedo is
     // E/π · (n · l) plus a slowly varying sky term; a least-squares fit of a·n + b over the
     // brightly lit pixels (normals from the renderer's AOV) recovers the light direction.
@@ -128,7 +128,7 @@ TEST(PipelineSyntheticBall, BallShadingPointsToTheKeyLight) {
     EXPECT_NEAR(norm(l), 2.8 / CV_PI, 0.15 * 2.8 / CV_PI);
 }
 
-TEST(PipelineSyntheticBall, BallSeparableByColourWhereTheTruthSays) {
+TEST(DatasetsRenderedBallClip, BallSeparableByColourWhereTheTruthSays) {
     const RenderedBallClip clip(smallClip(Size(320, 240), 9, 4));
     for (int i : {0, 4, 8}) {
         const Mat f = clip.frame(i);
@@ -150,7 +150,7 @@ TEST(PipelineSyntheticBall, BallSeparableByColourWhereTheTruthSays) {
     }
 }
 
-TEST(PipelineSyntheticBall, TrackerFollowsTheBall) {
+TEST(DatasetsRenderedBallClip, TrackerFollowsTheBall) {
     const RenderedBallClip::Params p = smallClip(Size(160, 120), 8, 4);
     const RenderedBallClip clip(p);
     Mat mask;
@@ -174,7 +174,7 @@ TEST(PipelineSyntheticBall, TrackerFollowsTheBall) {
     EXPECT_LT(err, 1.5);
 }
 
-TEST(PipelineSyntheticBall, WritesLosslessVideoAndMask) {
+TEST(DatasetsRenderedBallClip, WritesLosslessVideoAndMask) {
     vbme_test::ScratchDir dir;
     const RenderedBallClip::Params p = smallClip(Size(96, 72), 3, 2);
     const RenderedBallClip clip(p);
@@ -196,7 +196,7 @@ TEST(PipelineSyntheticBall, WritesLosslessVideoAndMask) {
     EXPECT_EQ(norm(m, truth, NORM_INF), 0.0);
 }
 
-TEST(PipelineSyntheticBall, RejectsBadParams) {
+TEST(DatasetsRenderedBallClip, RejectsBadParams) {
     RenderedBallClip::Params p;
     p.frames = 0;
     EXPECT_THROW(RenderedBallClip{p}, cv::Exception);
