@@ -3,15 +3,16 @@
 // insertion (vbme demo, end-to-end tests).
 #include "opencv2/vbme/datasets/insertion_sequence.hpp"
 
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/vbme/core/utility.hpp>
 #include <opencv2/vbme/datasets/room_sequence.hpp>
 #include <opencv2/vbme/render/integrator.hpp>
+#include <opencv2/vbme/render/scene.hpp>
 
 namespace cv {
 namespace vbme {
@@ -150,38 +151,49 @@ Light polygonLight(const std::vector<Vec3d>& corners, const Vec3d& radiance) {
 
 SyntheticInsertionSequence::Params::Params() = default;
 
+struct SyntheticInsertionSequence::Impl {
+    Params params_;
+    std::string dir_;
+    Scene scene_;
+    std::vector<Camera> cameras_;
+    FrameAnnotation annotation_;
+    Ptr<RenderScene> render_scene_;  // built on the first renderFrame()
+};
+
 SyntheticInsertionSequence::SyntheticInsertionSequence(const std::string& dir, const Params& params)
-    : params_(params), dir_(dir) {
-    Params& p = params_;
+    : impl_(std::make_shared<Impl>()) {
+    impl_->params_ = params;
+    impl_->dir_ = dir;
+    Params& p = impl_->params_;
     CV_Assert(p.size.width >= 32 && p.size.height >= 32 && p.frames >= 1 && p.spp >= 1);
     if (p.focal <= 0) p.focal = 0.6 * p.size.width;
     if (p.place.x < 0 || p.place.y < 0) p.place = Point2d(0.6 * p.size.width, 0.78 * p.size.height);
-    fs::create_directories(dir_);
+    fs::create_directories(impl_->dir_);
 
     // The room (4 × 5 × 2.6 m) and the first camera, from the calibration tests' sequence.
-    scene_ = syntheticRoomScene(p.size, p.focal, p.pitch_deg * CV_PI / 180, p.camera_height);
-    Room& room = scene_.room;
+    impl_->scene_ = syntheticRoomScene(p.size, p.focal, p.pitch_deg * CV_PI / 180, p.camera_height);
+    Room& room = impl_->scene_.room;
     const auto textures = makeRoomTextures(p.seed, p.texture_size);
     for (const auto& kv : textures) {
-        const std::string file = (fs::path(dir_) / ("tex_" + kv.first + ".png")).string();
+        const std::string file = (fs::path(impl_->dir_) / ("tex_" + kv.first + ".png")).string();
         imwriteAtomic(file, kv.second);
         room.textures[kv.first] = fs::absolute(file).string();
     }
     // Lights in the room: a ceiling panel that the first frame sees near its top, and a
     // window-like panel on the back wall, right of centre.
     const double zc = room.max[2], yb = room.max[1];
-    scene_.lights.push_back(
+    impl_->scene_.lights.push_back(
         polygonLight({{-0.45, 2.75, zc}, {-0.45, 3.45, zc}, {0.45, 3.45, zc}, {0.45, 2.75, zc}},
                      p.ceiling_radiance));
     if (p.wall_light)
-        scene_.lights.push_back(
+        impl_->scene_.lights.push_back(
             polygonLight({{0.55, yb, 0.65}, {1.55, yb, 0.65}, {1.55, yb, 1.6}, {0.55, yb, 1.6}},
                          p.wall_radiance));
-    for (const Light& l : scene_.lights)
+    for (const Light& l : impl_->scene_.lights)
         CV_Assert(l.polygonNormal().dot(Vec3d(0, 1, 1.5) - l.corners[0]) > 0);  // lit side in
 
     // The object on the floor under the first frame's pixel `place`.
-    const std::string mesh = (fs::path(dir_) / "object.obj").string();
+    const std::string mesh = (fs::path(impl_->dir_) / "object.obj").string();
     writeTorusKnotObj(mesh, p.object_width);
     SceneObject obj;
     obj.mesh = fs::absolute(mesh).string();
@@ -191,25 +203,25 @@ SyntheticInsertionSequence::SyntheticInsertionSequence(const std::string& dir, c
     obj.material.roughness = p.object_roughness;
     obj.material.ior = 1.5;
     obj.world_from_object =
-        floorPlacement(scene_.camera, room, p.place, p.object_yaw_deg * CV_PI / 180);
-    scene_.objects.push_back(obj);
-    scene_.render.spp = p.spp;
-    scene_.render.max_depth = p.max_depth;
-    scene_.render.seed = (uint64)p.seed;
-    scene_.write((fs::path(dir_) / "true_scene.yml").string());
+        floorPlacement(impl_->scene_.camera, room, p.place, p.object_yaw_deg * CV_PI / 180);
+    impl_->scene_.objects.push_back(obj);
+    impl_->scene_.render.spp = p.spp;
+    impl_->scene_.render.max_depth = p.max_depth;
+    impl_->scene_.render.seed = (uint64)p.seed;
+    impl_->scene_.write((fs::path(impl_->dir_) / "true_scene.yml").string());
 
-    cameras_ =
-        handheldCameraPath(scene_.camera, p.frames, p.travel, p.shake_m, p.shake_deg, p.seed + 4);
+    impl_->cameras_ = handheldCameraPath(impl_->scene_.camera, p.frames, p.travel, p.shake_m,
+                                         p.shake_deg, p.seed + 4);
     truePath().write(trueCamerasPath());
 
     // What a person clicks on frame 0: room edges, wall/floor/ceiling points, light polygons.
-    const Camera& cam = scene_.camera;
+    const Camera& cam = impl_->scene_.camera;
     RNG rng((uint64)p.seed * 7717u + 13u);
     auto noisy = [&](Point2d q) {
         return Point2d(q.x + rng.gaussian(p.click_noise_px), q.y + rng.gaussian(p.click_noise_px));
     };
     const Vec3d lo = room.min, hi = room.max;
-    FrameAnnotation& ann = annotation_;
+    FrameAnnotation& ann = impl_->annotation_;
     ann.image_size = p.size;
     ann.camera_height = p.camera_height;
     ann.has_response = true;
@@ -266,7 +278,7 @@ SyntheticInsertionSequence::SyntheticInsertionSequence(const std::string& dir, c
     if (!ann.room.floor_edges.count("left")) ann.room.faces["left"] = lo[0];
     if (!ann.room.floor_edges.count("right")) ann.room.faces["right"] = hi[0];
     if (!ann.room.ceiling_edges.count("back")) ann.room.faces["ceiling"] = hi[2];
-    for (const Light& l : scene_.lights) {
+    for (const Light& l : impl_->scene_.lights) {
         LightAnnotation la;
         for (const Vec3d& X : l.corners) {
             double depth = 0;
@@ -283,15 +295,34 @@ SyntheticInsertionSequence::SyntheticInsertionSequence(const std::string& dir, c
 
 SyntheticInsertionSequence::~SyntheticInsertionSequence() = default;
 
+const SyntheticInsertionSequence::Params& SyntheticInsertionSequence::params() const {
+    return impl_->params_;
+}
+const std::string& SyntheticInsertionSequence::dir() const {
+    return impl_->dir_;
+}
+const Scene& SyntheticInsertionSequence::trueScene() const {
+    return impl_->scene_;
+}
+const std::vector<Camera>& SyntheticInsertionSequence::cameras() const {
+    return impl_->cameras_;
+}
+const FrameAnnotation& SyntheticInsertionSequence::annotation() const {
+    return impl_->annotation_;
+}
+const SceneObject& SyntheticInsertionSequence::object() const {
+    return impl_->scene_.objects.front();
+}
+
 CameraPath SyntheticInsertionSequence::truePath() const {
     CameraPath path;
-    path.K = scene_.camera.K;
-    path.image_size = params_.size;
-    for (size_t i = 0; i < cameras_.size(); ++i) {
+    path.K = impl_->scene_.camera.K;
+    path.image_size = impl_->params_.size;
+    for (size_t i = 0; i < impl_->cameras_.size(); ++i) {
         CameraPath::Frame f;
         f.index = (int)i;
-        f.R = cameras_[i].R;
-        f.t = cameras_[i].t;
+        f.R = impl_->cameras_[i].R;
+        f.t = impl_->cameras_[i].t;
         f.source = CameraPath::SFM;
         path.frames.push_back(f);
     }
@@ -301,45 +332,45 @@ CameraPath SyntheticInsertionSequence::truePath() const {
 void SyntheticInsertionSequence::addObject(Scene& scene) const {
     CV_Assert(scene.has_room);
     SceneObject obj = object();
-    obj.world_from_object = floorPlacement(scene.camera, scene.room, params_.place,
-                                           params_.object_yaw_deg * CV_PI / 180);
+    obj.world_from_object = floorPlacement(scene.camera, scene.room, impl_->params_.place,
+                                           impl_->params_.object_yaw_deg * CV_PI / 180);
     scene.objects.push_back(obj);
-    scene.render.spp = params_.spp;
-    scene.render.max_depth = params_.max_depth;
-    scene.render.seed = (uint64)params_.seed;
+    scene.render.spp = impl_->params_.spp;
+    scene.render.max_depth = impl_->params_.max_depth;
+    scene.render.seed = (uint64)impl_->params_.seed;
 }
 
 std::string SyntheticInsertionSequence::annotationPath() const {
-    return (fs::path(dir_) / "annotation.yml").string();
+    return (fs::path(impl_->dir_) / "annotation.yml").string();
 }
 std::string SyntheticInsertionSequence::trueScenePath() const {
-    return (fs::path(dir_) / "true_scene.yml").string();
+    return (fs::path(impl_->dir_) / "true_scene.yml").string();
 }
 std::string SyntheticInsertionSequence::trueCamerasPath() const {
-    return (fs::path(dir_) / "true_cameras.yml").string();
+    return (fs::path(impl_->dir_) / "true_cameras.yml").string();
 }
 std::string SyntheticInsertionSequence::inputVideoPath() const {
-    return (fs::path(dir_) / "input.mkv").string();
+    return (fs::path(impl_->dir_) / "input.mkv").string();
 }
 std::string SyntheticInsertionSequence::truthVideoPath() const {
-    return (fs::path(dir_) / "truth.mkv").string();
+    return (fs::path(impl_->dir_) / "truth.mkv").string();
 }
 std::string SyntheticInsertionSequence::regionPath(int i) const {
-    return (fs::path(dir_) / "region" / maskFileName(i)).string();
+    return (fs::path(impl_->dir_) / "region" / maskFileName(i)).string();
 }
 
 void SyntheticInsertionSequence::renderFrame(int i, Mat& input, Mat& truth, Mat& region,
                                              int seed) const {
-    CV_Assert(i >= 0 && i < (int)cameras_.size());
-    if (!render_scene_) render_scene_ = RenderScene::create(scene_);
+    CV_Assert(i >= 0 && i < (int)impl_->cameras_.size());
+    if (!impl_->render_scene_) impl_->render_scene_ = RenderScene::create(impl_->scene_);
     Renderer::Params rp;
-    rp.spp = params_.spp;
-    rp.max_depth = params_.max_depth;
-    rp.seed = (uint64)(seed >= 0 ? seed : params_.seed);
-    rp.threads = params_.threads;
+    rp.spp = impl_->params_.spp;
+    rp.max_depth = impl_->params_.max_depth;
+    rp.seed = (uint64)(seed >= 0 ? seed : impl_->params_.seed);
+    rp.threads = impl_->params_.threads;
     const Ptr<Renderer> renderer = Renderer::create(rp);
     RenderImages with, without;
-    renderer->renderDifferential(*render_scene_, cameras_[i], with, without);
+    renderer->renderDifferential(*impl_->render_scene_, impl_->cameras_[i], with, without);
     encode(without.color, input, Response::SRGB, CV_8U);
     encode(with.color, truth, Response::SRGB, CV_8U);
     // Where the object changes the picture: its silhouette (dilated), and its shadow and
@@ -356,33 +387,36 @@ void SyntheticInsertionSequence::renderFrame(int i, Mat& input, Mat& truth, Mat&
 }
 
 double SyntheticInsertionSequence::writeVideos(bool force) const {
-    const int n = (int)cameras_.size();
+    const int n = (int)impl_->cameras_.size();
     auto complete = [&](const std::string& video) {
         if (!fs::exists(video)) return false;
         VideoReader r(video);
-        return r.frameCount() == n && r.frameSize() == params_.size;
+        return r.frameCount() == n && r.frameSize() == impl_->params_.size;
     };
     if (!force && complete(inputVideoPath()) && complete(truthVideoPath()) &&
         fs::exists(regionPath(n - 1)) && !fs::exists(regionPath(n)))
         return 0;
-    fs::remove_all(fs::path(dir_) / "region");
-    fs::create_directories(fs::path(dir_) / "region");
-    VideoSink in(inputVideoPath(), params_.fps, params_.size),
-        tr(truthVideoPath(), params_.fps, params_.size);
+    fs::remove_all(fs::path(impl_->dir_) / "region");
+    fs::create_directories(fs::path(impl_->dir_) / "region");
+    VideoSink in(inputVideoPath(), impl_->params_.fps, impl_->params_.size),
+        tr(truthVideoPath(), impl_->params_.fps, impl_->params_.size);
     Progress progress("render synthetic room", n);
-    const auto t0 = std::chrono::steady_clock::now();
-    for (int i = 0; i < n; ++i) {
-        Mat input, truth, region;
-        renderFrame(i, input, truth, region);
-        in.write(input);
-        tr.write(truth);
-        imwriteAtomic(regionPath(i), region);
-        progress.tick();
+    double seconds = 0;
+    {
+        ScopedTimer timer(seconds);
+        for (int i = 0; i < n; ++i) {
+            Mat input, truth, region;
+            renderFrame(i, input, truth, region);
+            in.write(input);
+            tr.write(truth);
+            imwriteAtomic(regionPath(i), region);
+            progress.tick();
+        }
+        progress.finish();
+        in.close();
+        tr.close();
     }
-    progress.finish();
-    in.close();
-    tr.close();
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / n;
+    return seconds / n;
 }
 
 }  // namespace vbme

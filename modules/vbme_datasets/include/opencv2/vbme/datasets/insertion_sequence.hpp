@@ -2,13 +2,13 @@
 #ifndef OPENCV_VBME_DATASETS_INSERTION_SEQUENCE_HPP
 #define OPENCV_VBME_DATASETS_INSERTION_SEQUENCE_HPP
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/vbme/calib/frame_calibration.hpp>
 #include <opencv2/vbme/core.hpp>
-#include <opencv2/vbme/render/scene.hpp>
 
 namespace cv {
 namespace vbme {
@@ -110,19 +110,19 @@ public:
     ~SyntheticInsertionSequence();
 
     /** @brief The settings (defaults resolved: focal, place). */
-    const Params& params() const { return params_; }
+    const Params& params() const;
     /** @brief The folder of the files. */
-    const std::string& dir() const { return dir_; }
+    const std::string& dir() const;
     /** @brief The true frame-0 scene: camera, textured room, lights, object, render settings. */
-    const Scene& trueScene() const { return scene_; }
+    const Scene& trueScene() const;
     /** @brief The true camera of every frame. */
-    const std::vector<Camera>& cameras() const { return cameras_; }
+    const std::vector<Camera>& cameras() const;
     /** @brief The true camera path (as `vbme track-camera` writes it). */
     CameraPath truePath() const;
     /** @brief The user's annotation of frame 0 (also in annotationPath()). */
-    const FrameAnnotation& annotation() const { return annotation_; }
+    const FrameAnnotation& annotation() const;
     /** @brief The object in the true world frame (absolute mesh path, plastic material). */
-    const SceneObject& object() const { return scene_.objects.front(); }
+    const SceneObject& object() const;
     /** @brief Adds the object to @p scene (e.g. the calibrated one), standing on its floor
     under the first-frame pixel Params::place as @p scene's camera sees it, with the demo's
     material and spp / max_depth as render settings. */
@@ -155,12 +155,8 @@ public:
     double writeVideos(bool force = false) const;
 
 private:
-    Params params_;
-    std::string dir_;
-    Scene scene_;
-    std::vector<Camera> cameras_;
-    FrameAnnotation annotation_;
-    mutable Ptr<RenderScene> render_scene_;
+    struct Impl;
+    std::shared_ptr<Impl> impl_;
 };
 
 //! @}
