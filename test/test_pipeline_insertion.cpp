@@ -1,8 +1,10 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-// runInsertion / placeOnFloor: resume, split runs, prepared-scene reuse, placement, and the
-// composite leaving the footage untouched where the object has no influence.
+// runInsertion and the stage API (prepareInsertion, renderInsertionFrame): resume, split runs,
+// prepared-scene reuse, placement, InsertionParams IO, and the composite leaving the footage
+// untouched where the object has no influence.
 #include <filesystem>
 #include <fstream>
+#include <functional>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -96,7 +98,6 @@ InsertionParams baseParams(const InsertInput& in, const std::string& out, const 
     p.cameras = in.cameras;
     p.out = out;
     p.work = work;
-    p.quiet = true;
     return p;
 }
 
@@ -130,24 +131,25 @@ TEST_F(PipelineInsertion, ResumeAndSplitGiveIdenticalFrames) {
     const InsertInput in = makeInput(dir, Size(96, 72), N, 4);
 
     InsertionParams pa = baseParams(in, dir / "a.mkv", dir / "work_a");
-    const InsertionReport ra = runInsertion(pa);
+    const PipelineReport ra = runInsertion(pa);
     EXPECT_EQ(ra.frames_total, N);
-    EXPECT_EQ(ra.frames_rendered, N);
+    EXPECT_EQ(ra.frames_processed, N);
     EXPECT_EQ(ra.frames_skipped, 0);
     EXPECT_TRUE(ra.video_written);
-    EXPECT_FALSE(ra.prepared_reused);
+    EXPECT_EQ(ra.figure("prepared_reused", -1), 0);
     ASSERT_TRUE(fs::exists(dir / "a.mkv"));
     EXPECT_TRUE(fs::exists(dir / "work_a/report.yml"));
     EXPECT_TRUE(fs::exists(dir / "work_a/prepared_scene.yml"));
-    ASSERT_EQ(ra.lights.scale.size(), 1u);
+    EXPECT_GT(ra.figure("light0_scale_r", -1), 0);  // one light, estimated
+    EXPECT_EQ(ra.figure("light1_scale_r", -1), -1);
 
     // split: first share
     InsertionParams pb = baseParams(in, dir / "b.mkv", dir / "work_b");
     pb.first = 0;
     pb.end = 2;
     pb.threads = 1;  // another machine: another thread count, the same frames
-    const InsertionReport rb1 = runInsertion(pb);
-    EXPECT_EQ(rb1.frames_rendered, 2);
+    const PipelineReport rb1 = runInsertion(pb);
+    EXPECT_EQ(rb1.frames_processed, 2);
     EXPECT_FALSE(rb1.video_written);
     EXPECT_EQ(rb1.missing, std::vector<int>({2, 3}));
     EXPECT_FALSE(fs::exists(dir / "b.mkv"));
@@ -160,16 +162,16 @@ TEST_F(PipelineInsertion, ResumeAndSplitGiveIdenticalFrames) {
     // second share (2:) plus the resume of frame 1: everything from 1 on
     pb.first = 1;
     pb.end = -1;
-    const InsertionReport rb2 = runInsertion(pb);
-    EXPECT_TRUE(rb2.prepared_reused);
-    EXPECT_EQ(rb2.frames_rendered, 3);  // 1, 2, 3
+    const PipelineReport rb2 = runInsertion(pb);
+    EXPECT_EQ(rb2.figure("prepared_reused", -1), 1);
+    EXPECT_EQ(rb2.frames_processed, 3);  // 1, 2, 3
     EXPECT_EQ(rb2.frames_skipped, 0);
     EXPECT_TRUE(rb2.video_written);
     // a rerun renders nothing
     pb.first = 0;
     pb.force = true;  // --out exists now
-    const InsertionReport rb3 = runInsertion(pb);
-    EXPECT_EQ(rb3.frames_rendered, 0);
+    const PipelineReport rb3 = runInsertion(pb);
+    EXPECT_EQ(rb3.frames_processed, 0);
     EXPECT_EQ(rb3.frames_skipped, N);
 
     for (int i = 0; i < N; ++i) {
@@ -185,7 +187,7 @@ TEST_F(PipelineInsertion, ResumeAndSplitGiveIdenticalFrames) {
 
     // a prepared scene made with other options is refused, not silently reused
     InsertionParams pc = baseParams(in, dir / "c.mkv", dir / "work_a");
-    pc.albedo = "retinex";
+    pc.albedo = InsertionParams::ALBEDO_RETINEX;
     try {
         runInsertion(pc);
         ADD_FAILURE() << "expected the mismatched prepared scene to be refused";
@@ -208,12 +210,12 @@ TEST_F(PipelineInsertion, CompositeLeavesUntouchedPixelsBitExact) {
     const InsertInput in = makeInput(dir, Size(96, 72), N, 4);
     InsertionParams p = baseParams(in, dir / "out/%05d.png", dir / "work");
     p.keep_exr = true;
-    p.lights = "none";
-    p.albedo = "retinex";
-    p.texture_mode = "per-frame";  // the thesis's frame-0 textures
-    p.has_place = true;            // and the object moved by --place
+    p.lights = InsertionParams::LIGHTS_NONE;
+    p.albedo = InsertionParams::ALBEDO_RETINEX;
+    p.texture_mode = InsertionParams::TEXTURE_PER_FRAME;  // the thesis's frame-0 textures
+    p.has_place = true;                                   // and the object moved by --place
     p.place = Point2d(40, 58);
-    const InsertionReport r = runInsertion(p);
+    const PipelineReport r = runInsertion(p);
     ASSERT_TRUE(r.video_written);
     {
         const Scene prepared = Scene::read(dir / "work/prepared_scene.yml");
@@ -249,41 +251,96 @@ TEST_F(PipelineInsertion, CompositeLeavesUntouchedPixelsBitExact) {
     }
 }
 
-// --place: the placed object's bottom centre projects back onto the pixel (< 0.5 px) and
-// sits on the floor; a pixel looking at the ceiling and one that would push the object
-// through a wall are refused.
-TEST_F(PipelineInsertion, PlaceOnFloorHitsThePixel) {
+// The stage API gives what the driver gives: prepareInsertion() on the driver's work folder
+// reuses its preparation, and renderInsertionFrame() on the input frames reproduces the
+// driver's frames bit for bit.
+TEST_F(PipelineInsertion, StageApiReproducesTheDriversFrames) {
     vbme_test::ScratchDir dir;
-    Scene s = syntheticRoomScene(Size(160, 120), 130, 0.35, 1.5);
-    const std::string mesh = dir / "cube.obj";
-    vbme_test::writeCubeObj(mesh, "", "", 0.3, true);
-    SceneObject o;
-    o.mesh = mesh;
-    // a turned object, offset: placement keeps the turn and replaces the offset
-    const double a = 0.4;
-    o.world_from_object = Matx44d(std::cos(a), -std::sin(a), 0, 5, std::sin(a), std::cos(a), 0, 5,
-                                  0, 0, 1, 5, 0, 0, 0, 1);
-    for (const Point2d px : {Point2d(80, 100), Point2d(30.25, 90.5), Point2d(120, 75)}) {
-        SceneObject placed = o;
-        placed.world_from_object = placeOnFloor(s, o, px);
-        Vec3d lo, hi;
-        objectWorldBounds(placed, lo, hi);
-        EXPECT_NEAR(lo[2], s.room.min[2], 1e-5);
-        const Vec3d bottom((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, lo[2]);
-        double depth = 0;
-        const Point2d back = s.camera.project(bottom, &depth);
-        EXPECT_GT(depth, 0);
-        EXPECT_LT(norm(back - px), 0.5) << px << " -> " << back;
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 3; ++c)
-                EXPECT_DOUBLE_EQ(placed.world_from_object(r, c), o.world_from_object(r, c));
+    const int N = 2;
+    const InsertInput in = makeInput(dir, Size(96, 72), N, 4);
+    InsertionParams p = baseParams(in, dir / "a.mkv", dir / "work");
+    const PipelineReport r = runInsertion(p);
+    ASSERT_TRUE(r.video_written);
+    std::vector<std::string> stages;
+    const PreparedInsertion prep0 =
+        prepareInsertion(p, [&](const std::string& stage, int64, int64) {
+            if (stages.empty() || stages.back() != stage) stages.push_back(stage);
+        });
+    PreparedInsertion prep = prep0;
+    EXPECT_TRUE(prep.reused);
+    EXPECT_EQ(prep.frames, N);
+    ASSERT_EQ((int)prep.timestamps.size(), N);
+    EXPECT_EQ(stages, std::vector<std::string>({"video"}));  // nothing prepared again
+    EXPECT_EQ(prep.white_scale, r.figure("white_scale"));
+    VideoReader reader(in.video);
+    Mat f, out;
+    for (int i = 0; i < N && reader.read(f); ++i) {
+        renderInsertionFrame(prep, i, f, out);
+        const Mat want = imread(dir / format("work/frames/frame_%05d.png", i), IMREAD_UNCHANGED);
+        EXPECT_TRUE(identical(out, want)) << "frame " << i;
     }
-    EXPECT_THROW(placeOnFloor(s, o, Point2d(80, 2)), cv::Exception);    // the ceiling
-    EXPECT_THROW(placeOnFloor(s, o, Point2d(80, 500)), cv::Exception);  // outside the frame
-    // a big object at the floor's far corner would poke through the walls
-    SceneObject big = o;
-    big.world_from_object = Matx44d(10, 0, 0, 0, 0, 10, 0, 0, 0, 0, 10, 0, 0, 0, 0, 1);
-    EXPECT_THROW(placeOnFloor(s, big, Point2d(80, 100)), cv::Exception);
+    EXPECT_THROW(renderInsertionFrame(prep, N, f, out), cv::Exception);
+}
+
+// InsertionParams: write then read gives the same fields; unknown keys and bad values are
+// errors naming the key or field.
+TEST(PipelineInsertionParams, ReadWriteCheck) {
+    InsertionParams a;
+    a.video = "v.mkv";
+    a.scene = "s.yml";
+    a.out = "o.mkv";
+    a.has_place = true;
+    a.place = Point2d(12.5, 40);
+    a.spp = 7;
+    a.texture_mode = InsertionParams::TEXTURE_PER_FRAME;
+    a.albedo = InsertionParams::ALBEDO_RETINEX;
+    a.lights = InsertionParams::LIGHTS_HILL_CLIMB;
+    a.white = 0.7;
+    a.first = 3;
+    a.end = 9;
+    FileStorage w(".yml", FileStorage::WRITE | FileStorage::MEMORY);
+    a.write(w);
+    const std::string text = w.releaseAndGetString();
+    EXPECT_NE(text.find("texture_mode: per-frame"), std::string::npos) << text;
+    FileStorage r(text, FileStorage::READ | FileStorage::MEMORY);
+    InsertionParams b;
+    b.read(r.root());
+    EXPECT_EQ(b.video, a.video);
+    EXPECT_EQ(b.out, a.out);
+    EXPECT_TRUE(b.has_place);
+    EXPECT_EQ(b.place, a.place);
+    EXPECT_EQ(b.spp, 7);
+    EXPECT_EQ(b.texture_mode, InsertionParams::TEXTURE_PER_FRAME);
+    EXPECT_EQ(b.albedo, InsertionParams::ALBEDO_RETINEX);
+    EXPECT_EQ(b.lights, InsertionParams::LIGHTS_HILL_CLIMB);
+    EXPECT_EQ(b.white, 0.7);
+    EXPECT_EQ(b.first, 3);
+    EXPECT_EQ(b.end, 9);
+    EXPECT_NO_THROW(b.check());
+    auto error = [](const std::function<void()>& f) {
+        try {
+            f();
+        } catch (const cv::Exception& e) {
+            return e.err;
+        }
+        return std::string("no error");
+    };
+    FileStorage u("{\"spp\": 3, \"sppp\": 4}",
+                  FileStorage::READ | FileStorage::MEMORY | FileStorage::FORMAT_JSON);
+    const std::string e1 = error([&] { InsertionParams().read(u.root()); });
+    EXPECT_NE(e1.find("sppp"), std::string::npos) << e1;
+    FileStorage m("{\"albedo\": \"shiny\"}",
+                  FileStorage::READ | FileStorage::MEMORY | FileStorage::FORMAT_JSON);
+    const std::string e2 = error([&] { InsertionParams().read(m.root()); });
+    EXPECT_NE(e2.find("irradiance, retinex"), std::string::npos) << e2;
+    InsertionParams c = a;
+    c.white = 1.5;
+    const std::string e3 = error([&] { c.check(); });
+    EXPECT_NE(e3.find("white"), std::string::npos) << e3;
+    c = a;
+    c.adaptive_roulette = -0.1;
+    const std::string e4 = error([&] { c.check(); });
+    EXPECT_NE(e4.find("adaptive_roulette"), std::string::npos) << e4;
 }
 
 }  // namespace

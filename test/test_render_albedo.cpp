@@ -248,3 +248,68 @@ TEST(RenderAlbedo, IrradianceAlbedoZeroMeansUnseen) {
     EXPECT_LT(sd[0], 1e-6);
     EXPECT_THROW(irradianceAlbedo(Scene(), L, A, p), cv::Exception);
 }
+
+// The white point fixes the lights' common scale: with the lights annotated 3× too dim (LDR
+// clipping makes annotated radiance a lower bound), irradianceAlbedoWhitePoint() given the
+// room's true white point brings them back to the true power and the albedo to the truth,
+// where plain irradianceAlbedo() with the dim lights is off by the factor.
+TEST(RenderAlbedo, WhitePointFixesTheLightScale) {
+    vbme_test::ScratchDir dir;
+    std::map<std::string, Mat> truth;
+    const Scene s = albedoTestRoom(dir, truth, 24);  // texelRadiance() gives 24 x 24
+    const std::map<std::string, Mat> L = texelRadiance(s, 32);
+    std::map<std::string, Mat> seen;
+    std::vector<float> white_values;
+    for (const auto& kv : L) {
+        seen[kv.first] = Mat(kv.second.size(), CV_8U, Scalar(kv.first == "front" ? 0 : 255));
+        if (kv.first == "front") continue;
+        // the truth's white point as the function measures it: largest channel, 99th
+        // percentile over the seen, unclipped texels
+        const Mat& a = truth.at(kv.first);
+        for (int y = 0; y < a.rows; ++y)
+            for (int x = 0; x < a.cols; ++x) {
+                const Vec3f l = kv.second.at<Vec3f>(y, x), v = a.at<Vec3f>(y, x);
+                if (std::max({l[0], l[1], l[2]}) < 0.95f)
+                    white_values.push_back(std::max({v[0], v[1], v[2]}));
+            }
+    }
+    ASSERT_FALSE(white_values.empty());
+    std::nth_element(white_values.begin(), white_values.begin() + white_values.size() * 99 / 100,
+                     white_values.end());
+    const double white = white_values[white_values.size() * 99 / 100];
+    const double kDim = 3;
+    Scene dim = s;
+    dim.room.textures.clear();
+    dim.lights[0].radiance = s.lights[0].radiance / kDim;
+    IrradianceAlbedoParams p;
+    p.grid = 16;
+    p.spp = 32;
+    std::map<std::string, Mat> plain, fixed;
+    irradianceAlbedo(dim, L, seen, plain, p);
+    Scene scaled = dim;
+    const double k = irradianceAlbedoWhitePoint(scaled, L, seen, fixed, white, p);
+    double e_plain = 0, e_fixed = 0;
+    int nf = 0;
+    for (const std::string& face : Room::faceNames()) {
+        if (face == "front") continue;
+        e_plain += relError(plain.at(face), truth.at(face), seen.at(face));
+        e_fixed += relError(fixed.at(face), truth.at(face), seen.at(face));
+        ++nf;
+    }
+    e_plain /= nf;
+    e_fixed /= nf;
+    const double power_ratio = scaled.lights[0].radiance[0] / s.lights[0].radiance[0];
+    std::printf(
+        "[ measured ] white point %.3f: light scale %.4f (truth %.1f), light power / true %.4f; "
+        "mean relative albedo error %.4f (dim lights, no white point: %.4f)\n",
+        white, k, kDim, power_ratio, e_fixed, e_plain);
+    EXPECT_NEAR(k, kDim, 0.1 * kDim);
+    EXPECT_NEAR(power_ratio, 1.0, 0.1);
+    EXPECT_LT(e_fixed, 0.1);
+    EXPECT_LT(e_fixed, 0.5 * e_plain);
+    // white = 0: one pass, lights untouched
+    Scene same = dim;
+    std::map<std::string, Mat> again;
+    EXPECT_EQ(irradianceAlbedoWhitePoint(same, L, seen, again, 0.0, p), 1.0);
+    EXPECT_EQ(same.lights[0].radiance, dim.lights[0].radiance);
+}

@@ -557,14 +557,14 @@ void benchInsert(const BenchOptions& o) {
     ip.work = (dir / "work").string();
     ip.spp = o.spp;
     ip.force = true;
-    ip.quiet = true;
-    const InsertionReport rep = runInsertion(ip);
+    const PipelineReport rep = runInsertion(ip);
 
     std::printf("insert %dx%d, %d frames, vbme insert's defaults (%d spp), %d threads:\n", o.width,
-                o.height, rep.frames_rendered, rep.spp, getNumThreads());
+                o.height, rep.frames_processed, (int)rep.figure("spp"), getNumThreads());
     for (const auto& kv : rep.seconds)
         std::printf("  %-10s %8.2f s\n", kv.first.c_str(), kv.second);
-    std::printf("  per frame (differential render + composite) %.2f s\n", rep.seconds_per_frame);
+    std::printf("  per frame (differential render + composite) %.2f s\n",
+                rep.figure("seconds_per_frame"));
 
     // Frame 0 again, from the prepared scene, with each sampling setting; the composite's
     // error against a high-spp reference (another seed) in 8-bit display values.

@@ -2,11 +2,13 @@
 // vbme insert: synthetic objects in a hand-held video of a room, lit by the room, composited
 // by differential rendering (thesis chapter 5). A thin wrapper around cv::vbme::runInsertion.
 #include <cstdio>
+#include <map>
 #include <regex>
 
 #include <opencv2/vbme/pipeline/insertion.hpp>
 
 #include "command.hpp"
+#include "pipeline_progress.hpp"
 
 namespace vbme_app {
 
@@ -15,8 +17,17 @@ namespace {
 struct InsertOptions {
     cv::vbme::InsertionParams p;
     std::string place, frames;
+    // the command line's words for InsertionParams' enums
+    std::string texture_mode = "accumulate", albedo = "irradiance", lights = "nnls";
     CommonOptions common;
 };
+
+template <class E>
+E fromWord(const std::string& word, std::initializer_list<E> values) {
+    for (E v : values)
+        if (cv::vbme::toString(v) == word) return v;
+    throw CLI::ValidationError("'" + word + "' is not a valid choice");
+}
 
 void parseOptions(InsertOptions& o) {
     static const std::string num = R"(\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*)";
@@ -39,35 +50,44 @@ void parseOptions(InsertOptions& o) {
         if (o.p.end >= 0 && o.p.end <= o.p.first)
             throw CLI::ValidationError("--frames", "A:B needs A < B, got '" + o.frames + "'");
     }
+    using P = cv::vbme::InsertionParams;
+    o.p.texture_mode = fromWord(o.texture_mode, {P::TEXTURE_ACCUMULATE, P::TEXTURE_PER_FRAME});
+    o.p.albedo = fromWord(o.albedo, {P::ALBEDO_IRRADIANCE, P::ALBEDO_RETINEX});
+    o.p.lights = fromWord(o.lights, {P::LIGHTS_NNLS, P::LIGHTS_HILL_CLIMB, P::LIGHTS_NONE});
 }
 
 void runInsert(InsertOptions& o) {
     using namespace cv::vbme;
     o.p.force = o.common.force;
-    o.p.quiet = o.common.quiet;
     o.p.command_line = commandLine();
-    const InsertionReport r = runInsertion(o.p);
+    if (!o.common.quiet) {
+        const Scene scene = Scene::read(o.p.scene);
+        for (const std::string& w : scene.warnings())
+            std::fprintf(stderr, "vbme: warning: %s: %s\n", o.p.scene.c_str(), w.c_str());
+    }
+    const PipelineReport r = runInsertion(o.p, progressBars("insert"));
+    const bool reused = r.figure("prepared_reused") != 0;
     if (o.p.prepare_only) {
         std::printf(
             "prepared %s for %d frames (%s); render them with --frames A:B and the same --work, "
             "--scene, --video, --spp\n",
-            r.work.c_str(), r.frames_total, r.prepared_reused ? "reused" : "made now");
+            r.work.c_str(), r.frames_total, reused ? "reused" : "made now");
         return;
     }
     std::printf(
         "frames %d:%d of %d: %d rendered, %d already done, %d being rendered by another process "
         "(%.2f s/frame at %d spp)\n",
-        o.p.first, o.p.end < 0 ? r.frames_total : o.p.end, r.frames_total, r.frames_rendered,
-        r.frames_skipped, r.frames_busy, r.seconds_per_frame, r.spp);
-    std::printf(
-        "stages (s): tracking %.1f, textures %.1f, albedo %.1f, lights %.1f, render %.1f, "
-        "encode %.1f%s\n",
-        r.seconds.at("tracking"), r.seconds.at("textures"), r.seconds.at("albedo"),
-        r.seconds.at("lights"), r.seconds.at("render"), r.seconds.at("encode"),
-        r.prepared_reused ? " (prepared scene reused)" : "");
-    for (size_t i = 0; i < r.lights.scale.size(); ++i)
-        std::printf("light %zu scaled by (%.4g, %.4g, %.4g)\n", i, r.lights.scale[i][0],
-                    r.lights.scale[i][1], r.lights.scale[i][2]);
+        o.p.first, o.p.end < 0 ? r.frames_total : o.p.end, r.frames_total, r.frames_processed,
+        r.frames_skipped, r.frames_busy, r.figure("seconds_per_frame"), (int)r.figure("spp"));
+    std::string stages;
+    for (const auto& kv : r.seconds)
+        stages += cv::format("%s%s %.1f", stages.empty() ? "" : ", ", kv.first.c_str(), kv.second);
+    std::printf("stages (s): %s%s\n", stages.c_str(), reused ? " (prepared scene reused)" : "");
+    for (int i = 0; r.figure(cv::format("light%d_scale_r", i), -1) >= 0; ++i)
+        std::printf("light %d scaled by (%.4g, %.4g, %.4g)\n", i,
+                    r.figure(cv::format("light%d_scale_r", i)),
+                    r.figure(cv::format("light%d_scale_g", i)),
+                    r.figure(cv::format("light%d_scale_b", i)));
     if (r.video_written) {
         std::printf("written: %s (report %s/report.yml)\n", o.p.out.c_str(), r.work.c_str());
     } else {
@@ -120,17 +140,17 @@ void setupInsert(CLI::App& app) {
     app.add_flag("--keep-exr", o->p.keep_exr,
                  "Keep per-frame multi-layer OpenEXRs (R,G,B composite, obj, noobj, diff, mask) "
                  "in <work>/exr");
-    app.add_option("--texture-mode", o->p.texture_mode,
+    app.add_option("--texture-mode", o->texture_mode,
                    "accumulate: room textures from frames over the whole video; per-frame: "
                    "the thesis's frame-0 textures")
         ->check(CLI::IsMember({"accumulate", "per-frame"}))
         ->capture_default_str();
-    app.add_option("--albedo", o->p.albedo,
+    app.add_option("--albedo", o->albedo,
                    "irradiance: texture / irradiance of the room's lights; retinex: Retinex "
                    "shading removal")
         ->check(CLI::IsMember({"irradiance", "retinex"}))
         ->capture_default_str();
-    app.add_option("--lights", o->p.lights,
+    app.add_option("--lights", o->lights,
                    "Light estimation: nnls, hill-climb (thesis Eq. 5.1) or none (keep the "
                    "scene's powers)")
         ->check(CLI::IsMember({"nnls", "hill-climb", "none"}))

@@ -16,6 +16,7 @@
 #include <opencv2/vbme/pipeline/insertion.hpp>
 
 #include "demo.hpp"
+#include "pipeline_progress.hpp"
 
 namespace vbme_app {
 
@@ -148,15 +149,15 @@ DemoResult runInsertionDemo(const DemoContext& ctx) {
     std::printf("demo insert: inserting the object (textures, albedo, lights, %d spp renders)\n",
                 gp.spp);
     std::fflush(stdout);
-    const InsertionReport irep = runInsertion(ip);
-    irep.write((dir / "insert_report.yml").string());
+    const PipelineReport irep = runInsertion(ip, progressBars("insert"));
+    irep.save((dir / "insert_report.yml").string());
     {
         std::string stages;
         for (const auto& kv : irep.seconds)
             stages +=
                 format("%s%s %.1f s", stages.empty() ? "" : ", ", kv.first.c_str(), kv.second);
         result.figures.push_back(format("insertion: %.1f s/frame rendered and composited (%s)",
-                                        irep.seconds_per_frame, stages.c_str()));
+                                        irep.figure("seconds_per_frame"), stages.c_str()));
     }
 
     // 5. Compare with the truth where the object changes the picture; videos to watch.

@@ -31,5 +31,6 @@ doc/vbme_render.md and doc/vbme_render_differential.md.
 #include "opencv2/vbme/render/albedo.hpp"
 #include "opencv2/vbme/render/light_estimation.hpp"
 #include "opencv2/vbme/render/relighting.hpp"
+#include "opencv2/vbme/render/placement.hpp"
 
 #endif

@@ -2,15 +2,20 @@
 #ifndef OPENCV_VBME_PIPELINE_INSERTION_HPP
 #define OPENCV_VBME_PIPELINE_INSERTION_HPP
 
-#include <map>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "opencv2/vbme/core/camera_path.hpp"
 #include "opencv2/vbme/core/scene.hpp"
 #include "opencv2/vbme/core/video.hpp"
+#include "opencv2/vbme/pipeline/report.hpp"
+#include "opencv2/vbme/render/differential.hpp"
+#include "opencv2/vbme/render/integrator.hpp"
 #include "opencv2/vbme/render/light_estimation.hpp"
+#include "opencv2/vbme/render/placement.hpp"
+#include "opencv2/vbme/render/scene.hpp"
 
 namespace cv {
 namespace vbme {
@@ -18,19 +23,41 @@ namespace vbme {
 //! @addtogroup vbme_pipeline
 //! @{
 
-/** @brief Options of runInsertion() (the `vbme insert` command's options). */
+/** @brief Options of the insertion pipeline (prepareInsertion(), runInsertion(); the
+`vbme insert` command's options).
+
+The stages and their files: the inputs and the camera path (`src/insertion/inputs.cpp`,
+`camera_path.cpp`), the room textures (`room_textures.cpp`), the albedo (`albedo.cpp`), the
+lights (`lights.cpp`), the prepared scene (`prepare.cpp`, `prepared_record.cpp`), one frame
+(`render_frame.cpp`) and the resumable file-to-file driver (`driver.cpp`). */
 struct CV_EXPORTS InsertionParams {
+    /** @brief Which frames give the room's radiance textures. */
+    enum TextureMode {
+        TEXTURE_ACCUMULATE = 0,  //!< frames over the whole video (every k-th, at most ~24)
+        TEXTURE_PER_FRAME = 1    //!< frame 0 only (the thesis's textures)
+    };
+    /** @brief How the room's albedo is taken from its radiance textures. */
+    enum AlbedoMethod {
+        ALBEDO_IRRADIANCE = 0,  //!< texture / irradiance of the room's lights (irradianceAlbedo())
+        ALBEDO_RETINEX = 1      //!< Retinex shading removal (retinexAlbedo())
+    };
+    /** @brief How the lights' powers are estimated (estimateLights()). */
+    enum LightsMethod {
+        LIGHTS_NNLS = 0,        //!< non-negative least squares
+        LIGHTS_HILL_CLIMB = 1,  //!< the thesis's hill climbing (Eq. 5.1)
+        LIGHTS_NONE = 2         //!< keep the scene's powers
+    };
+
     std::string video;    //!< input video (file, image folder or pattern)
     std::string scene;    //!< frame-0 scene file (vbme calibrate's output + objects:)
     std::string cameras;  //!< camera path YAML; empty: camera tracking is run into the work folder
     std::string out;      //!< composited video (.mp4, .mkv, .avi or %05d image pattern)
     std::string work;     //!< work folder (empty: <out without extension>_work)
-    bool has_place = false;     //!< whether @p place is given (--place u,v)
-    Point2d place;              //!< objects[0] on the floor under this frame-0 pixel
-    int spp = 0;                //!< samples per pixel (0: the scene's render.spp)
+    bool has_place = false;  //!< whether @p place is given (--place u,v)
+    Point2d place;           //!< objects[0] on the floor under this frame-0 pixel
+    int spp = 0;             //!< samples per pixel (0: the scene's render.spp)
     /** @brief Adaptive sampling's minimum per pixel (Renderer::Params::adaptive_min_spp; 0,
-    the default: every pixel takes `spp`). When on, a pixel takes at most 4 × `spp`. Off by
-    default: in PipelineInsertE2E (spp 4) it lowered the region PSNR from 30 to 25.3 dB. */
+    the default: every pixel takes `spp`). When on, a pixel takes at most 4 × `spp`. */
     int adaptive_min_spp = 0;
     /** @brief Adaptive sampling's target: 95 % half-width of the composite in 8-bit display
     values (Renderer::Params::adaptive_error). */
@@ -46,68 +73,116 @@ struct CV_EXPORTS InsertionParams {
     bool prepare_only = false;  //!< stop after preparing the work folder (tracking, textures,
                                 //!< albedo, lights): render farms prepare once, then split frames
     bool keep_exr = false;      //!< keep per-frame multi-layer EXRs in <work>/exr
-    std::string texture_mode = "accumulate";  //!< or "per-frame"
-    std::string albedo = "irradiance";        //!< or "retinex"
-    std::string lights = "nnls";              //!< or "hill-climb", "none"
-    bool per_frame_gain = false;              //!< light estimation fits one exposure gain per frame
-    /** @brief Albedo of the room's whitest surfaces (99th percentile of the irradiance albedo's
-    largest channel), which fixes the scale that image = albedo × light power leaves open: the
-    lights' annotated radiance comes from clipped LDR pixels and is only a lower bound. 0 keeps
-    the annotated powers. Retinex albedo uses its own white point (RetinexParams::white). */
+    TextureMode texture_mode = TEXTURE_ACCUMULATE;  //!< frames of the room textures
+    AlbedoMethod albedo = ALBEDO_IRRADIANCE;        //!< albedo method
+    LightsMethod lights = LIGHTS_NNLS;              //!< light estimation method
+    bool per_frame_gain = false;  //!< light estimation fits one exposure gain per frame
+    /** @brief Albedo of the room's whitest surfaces, which fixes the scale that image =
+    albedo × light power leaves open (irradianceAlbedoWhitePoint()); 0 keeps the annotated
+    powers. Used by ALBEDO_IRRADIANCE only (Retinex has its own RetinexParams::white). */
     double white = 0.9;
-    int threads = 0;           //!< 0: all cores
-    bool force = false;        //!< overwrite an existing --out
-    bool quiet = false;        //!< no scene warnings on stderr (progress: Progress::setEnabled)
+    int threads = 0;           //!< renderer worker threads (0: all cores)
+    bool force = false;        //!< overwrite an existing --out; redo a foreign work folder
     std::string command_line;  //!< recorded in the EXR provenance attributes (optional)
     /** Encoding of the output video (codec, quality, pixel format); the input's timestamps,
     colour tags and audio are carried to it (cv::vbme::sinkOptionsFrom). */
     VideoSinkOptions encode;
+
+    /** @brief Reads the fields present in @p fn (names as write() writes them; the enums as
+    the command line's words, e.g. `texture_mode: per-frame`). Throws cv::Exception naming
+    any key it does not know, and the valid ones. `encode` is not read. */
+    void read(const FileNode& fn);
+    /** @brief Writes the fields (not `encode`, `command_line`) at the current level. */
+    void write(FileStorage& fs) const;
+    /** @brief Throws cv::Exception naming the first field out of its valid range (and the
+    range). File names are not checked for existence here. */
+    void check() const;
+    /** @brief The work folder: @p work, or `<out without extension>_work` when empty. */
+    std::string workFolder() const;
 };
 
-/** @brief What runInsertion() did. */
-struct CV_EXPORTS InsertionReport {
-    int frames_total = 0;        //!< frames of the video
-    int frames_rendered = 0;     //!< frames rendered by this run
-    int frames_busy = 0;         //!< frames of [first, end) another process was rendering
-    int frames_skipped = 0;      //!< frames of [first, end) already in the work folder
-    bool video_written = false;  //!< false when frames of the video are still missing (split runs)
-    /** @brief Per stage wall seconds: tracking, textures, albedo, lights, render, encode. */
-    std::map<std::string, double> seconds;
-    double seconds_per_frame = 0;  //!< render + composite per rendered frame
-    LightEstimate lights;          //!< the light estimate (stored in the prepared scene)
-    /** @brief Factor applied to all annotated light powers to bring the room's white point to
-    InsertionParams::white (before `lights`; 1 when not used). */
-    double white_scale = 1;
-    int spp = 0;                   //!< samples per pixel used
-    bool prepared_reused = false;  //!< the prepared scene of the work folder was reused
-    std::string work;              //!< the work folder used
-    std::vector<int> missing;      //!< frames of the video without a composited file
-    /** @brief Writes the report as YAML (atomically). */
-    void write(const std::string& path) const;
+/** @brief The command line's word for a texture mode ("accumulate", "per-frame"). */
+CV_EXPORTS std::string toString(InsertionParams::TextureMode m);
+/** @brief The command line's word for an albedo method ("irradiance", "retinex"). */
+CV_EXPORTS std::string toString(InsertionParams::AlbedoMethod m);
+/** @brief The command line's word for a light estimation ("nnls", "hill-climb", "none"). */
+CV_EXPORTS std::string toString(InsertionParams::LightsMethod m);
+
+/** @brief The result of the preparation stages: everything a frame's render needs.
+
+Made by prepareInsertion(); frames are then rendered in any order, by renderInsertionFrame(),
+in this process or (through the work folder's `prepared_scene.yml`) in others. The render
+scene is built on the first renderInsertionFrame() call and shared by copies of this object;
+renderInsertionFrame() is not to be called concurrently on one PreparedInsertion. */
+struct CV_EXPORTS PreparedInsertion {
+    /** @brief The prepared scene: the room with albedo textures, the lights scaled by the
+    white point and the light estimate, the objects placed. */
+    Scene scene;
+    CameraPath path;                 //!< one camera per frame of the video
+    LightEstimate lights;            //!< the light estimate (applied to @p scene's lights)
+    double white_scale = 1;          //!< factor applied to all lights before @p lights
+    int frames = 0;                  //!< frames of the input video
+    std::vector<double> timestamps;  //!< presentation time of each input frame (seconds)
+    std::string fingerprint;         //!< hash of everything the preparation depends on
+    std::string work;                //!< the work folder holding textures, albedo and the record
+    bool reused = false;             //!< the work folder's prepared scene was reused
+    /** @brief Path tracer settings of every frame (spp, seed, adaptive sampling). */
+    Renderer::Params render;
+    /** @brief The camera of frame @p i (the path's pose, the scene's response and size). */
+    Camera camera(int i) const;
+
+    /** @brief Built on first use by renderInsertionFrame(). */
+    Ptr<RenderScene> render_scene;
+    /** @brief Built on first use by renderInsertionFrame(). */
+    Ptr<DifferentialRenderer> renderer;
 };
 
-/** @brief Inserts the scene's `objects:` into a hand-held video of a room (thesis chapter 5).
+/** @brief Prepares an insertion: reads the inputs, finds the camera path (tracking it into
+`<work>/tracking` when InsertionParams::cameras is empty), builds the room's radiance textures
+from the video (unseen texels filled by fillUnseenTexels()), its albedo
+(irradianceAlbedoWhitePoint() or retinexAlbedo()) and the light estimate (estimateLights()), and
+records the prepared scene in the work folder (`textures/`, `albedo/`, `prepared_scene.yml`). A
+prepared scene already in the work folder that was made from the same inputs and options is reused;
+one made from others is an error unless InsertionParams::force (then it and its frames are removed).
 
-A thin driver over the modules: camera path (read, or vbme_calib's trackCameraVideo into
-`<work>/tracking`), room textures accumulated over the video (RoomTextureAccumulator, unseen
-texels filled by ExemplarInpainter), albedo (irradianceAlbedo or retinexAlbedo), light
-estimation (estimateLights, applyLightEstimate), then per frame a DifferentialRenderer render
-with shared samples and a fixed seed, composited onto the input frame (compositeDifferential,
-encodeComposite) and written as `<work>/frames/frame_%05d.png`. Frames already there are
-skipped, so an interrupted run resumes and several machines can split one video with
-@p first / @p end. When every frame exists the output video is assembled (with the input's
-audio, if any). See doc/vbme_pipeline_insert.md. Throws cv::Exception for bad input. */
-CV_EXPORTS InsertionReport runInsertion(const InsertionParams& p);
+The input video is decoded once here (counting, fingerprinting and keeping the texture frames),
+twice when its container's frame count was wrong; camera tracking decodes it on its own.
+@param p options (checked with InsertionParams::check()).
+@param progress stage progress ("video", "tracking", "textures", "albedo", "lights").
+@param report if not null, receives frames_total, work, the stages' seconds and the figures
+`white_scale`, `prepared_reused` and `light<i>_scale_{r,g,b}`. */
+CV_EXPORTS PreparedInsertion prepareInsertion(const InsertionParams& p,
+                                              const PipelineProgress& progress = PipelineProgress(),
+                                              PipelineReport* report = nullptr);
 
-/** @brief world_from_object that puts the object's bounding-box bottom centre on the floor
-(z = room.min.z) where frame-0 pixel @p px looks (the rotation of the object's current
-world_from_object is kept); throws if the ray misses the floor or the object would leave the
-room. */
-CV_EXPORTS Matx44d placeOnFloor(const Scene& scene, const SceneObject& object, Point2d px);
+/** @brief Renders frame @p i of a prepared insertion and composites it onto the input frame
+(DifferentialRenderer with shared samples and a fixed seed, compositeDifferential(),
+encodeComposite()).
+@param prepared the preparation (its render scene is built on the first call).
+@param i frame index in [0, prepared.frames).
+@param frame the input video's frame @p i (8- or 16-bit BGR, the scene's image size).
+@param composite receives the composited frame, of @p frame's type.
+@param layers if not null, receives the differential render's layers.
+@param composite_linear if not null, receives the linear CV_32FC3 composite. */
+CV_EXPORTS void renderInsertionFrame(PreparedInsertion& prepared, int i, InputArray frame,
+                                     OutputArray composite, DifferentialImages* layers = nullptr,
+                                     Mat* composite_linear = nullptr);
 
-/** @brief World-space axis-aligned bounds of an object's mesh under its world_from_object
-(loads the mesh). */
-CV_EXPORTS void objectWorldBounds(const SceneObject& object, Vec3d& lo, Vec3d& hi);
+/** @brief Inserts the scene's `objects:` into a hand-held video of a room (thesis chapter 5),
+file to file: the driver of `vbme insert`.
+
+Takes the work folder's lock, runs prepareInsertion(), then renders the frames of
+[first, end) missing from `<work>/frames/frame_%05d.png` (renderInsertionFrame(); one lock per
+frame, so several processes can split a video over a shared work folder; frames already there
+are skipped, so an interrupted run resumes), and when every frame exists assembles the output
+video with the input's timestamps, colour tags and audio (VideoSink). The input is decoded
+once more for the frames rendered. Writes `<work>/report.yml` (PipelineReport) and returns the
+report. See doc/vbme_pipeline_insert.md. Throws cv::Exception for bad input.
+@param p options.
+@param progress stage progress (prepareInsertion()'s stages, "render", "encode"; "waiting"
+with 0, 0 when another process holds the work folder). */
+CV_EXPORTS PipelineReport runInsertion(const InsertionParams& p,
+                                       const PipelineProgress& progress = PipelineProgress());
 
 //! @}
 

@@ -116,6 +116,33 @@ CV_EXPORTS void irradianceAlbedo(const Scene& scene, const std::map<std::string,
                                  const IrradianceAlbedoParams& p,
                                  std::map<std::string, Mat>* irradiance = nullptr);
 
+/** @brief irradianceAlbedo() with the lights' common scale fixed by the room's white point.
+
+Image = albedo × light power leaves a common factor open, and the lights' annotated radiance,
+taken from clipped LDR pixels, is only a lower bound. This scales all lights of @p scene by one
+factor k until the room's whitest surfaces, the 99th percentile over seen, unclipped texels
+(largest channel below 0.95) of the raw largest-channel ratio π·L/E, have albedo @p white.
+E is nearly proportional to the lights' power (the indirect part, gathered from the observed
+radiance, is not), so a fixed-point iteration converges in a few steps: up to
+@p max_iterations irradianceAlbedo() passes, stopping when a step changes k by less than 1 %.
+@param scene room, proxies and lights; its lights' radiance / intensity are multiplied by the
+returned factor (applyLightEstimate()).
+@param radiance observed linear radiance per face (RoomTextureAccumulator::textures()).
+@param seen seen masks per face (same sizes as @p radiance).
+@param albedo receives the albedo of the last pass (with the scaled lights).
+@param white target albedo of the whitest surfaces, in (0, 1]; 0 or less: no scaling (one
+irradianceAlbedo() pass).
+@param p options of irradianceAlbedo().
+@param max_iterations irradianceAlbedo() passes at most (≥ 1).
+@return the factor applied to the lights (1 when none). */
+CV_EXPORTS double irradianceAlbedoWhitePoint(Scene& scene,
+                                             const std::map<std::string, Mat>& radiance,
+                                             const std::map<std::string, Mat>& seen,
+                                             std::map<std::string, Mat>& albedo, double white,
+                                             const IrradianceAlbedoParams& p =
+                                                 IrradianceAlbedoParams(),
+                                             int max_iterations = 6);
+
 //! @}
 
 }  // namespace vbme

@@ -117,6 +117,20 @@ public:
     virtual std::map<std::string, Size> textureSizes() const = 0;
 };
 
+/** @brief Fills the texels of a room texture that no frame saw, by exemplar inpainting.
+
+The texture is normalised by the 99.5th percentile of its seen values, encoded to 8 bits with
+the sRGB curve, filled with ExemplarInpainter, and only the unseen texels are decoded back
+(seen texels are left bit for bit). A texture whose longer side exceeds 256 texels is filled
+at that reduced size and the fill upsampled: unseen texels only light inserted objects
+indirectly or show in their reflections, so their detail matters little, and exemplar filling
+of megapixel holes would dominate the room's preparation. A texture with no seen texel becomes
+mid-grey (0.18).
+@param texture_linear CV_32FC3 linear texture (RoomTextureAccumulator::textures()), filled in
+place.
+@param seen CV_8U mask of the texture's size, non-zero where a frame saw the texel. */
+CV_EXPORTS void fillUnseenTexels(InputOutputArray texture_linear, InputArray seen);
+
 //! @}
 
 }  // namespace vbme

@@ -1,0 +1,175 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// InsertionParams: the enums' words, read / write / check.
+#include <filesystem>
+#include <set>
+
+#include "opencv2/vbme/pipeline/insertion.hpp"
+
+namespace cv {
+namespace vbme {
+
+namespace {
+
+const char* const kTextureWords[] = {"accumulate", "per-frame"};
+const char* const kAlbedoWords[] = {"irradiance", "retinex"};
+const char* const kLightsWords[] = {"nnls", "hill-climb", "none"};
+
+template <size_t N>
+int parseWord(const FileNode& n, const char* key, const char* const (&words)[N]) {
+    const std::string s = (std::string)n;
+    std::string valid;
+    for (size_t i = 0; i < N; ++i) {
+        if (s == words[i]) return (int)i;
+        valid += std::string(i ? ", " : "") + words[i];
+    }
+    CV_Error(Error::StsBadArg,
+             format("InsertionParams.%s: '%s' is not one of %s", key, s.c_str(), valid.c_str()));
+}
+
+}  // namespace
+
+std::string toString(InsertionParams::TextureMode m) {
+    CV_Assert(m >= 0 && m < 2);
+    return kTextureWords[m];
+}
+std::string toString(InsertionParams::AlbedoMethod m) {
+    CV_Assert(m >= 0 && m < 2);
+    return kAlbedoWords[m];
+}
+std::string toString(InsertionParams::LightsMethod m) {
+    CV_Assert(m >= 0 && m < 3);
+    return kLightsWords[m];
+}
+
+std::string InsertionParams::workFolder() const {
+    namespace fs = std::filesystem;
+    if (!work.empty()) return work;
+    return (fs::path(out).parent_path() / (fs::path(out).stem().string() + "_work")).string();
+}
+
+void InsertionParams::read(const FileNode& fn) {
+    static const char* const keys[] = {"video",
+                                       "scene",
+                                       "cameras",
+                                       "out",
+                                       "work",
+                                       "place",
+                                       "spp",
+                                       "adaptive_min_spp",
+                                       "adaptive_error",
+                                       "adaptive_roulette",
+                                       "texture_cone",
+                                       "first",
+                                       "end",
+                                       "prepare_only",
+                                       "keep_exr",
+                                       "texture_mode",
+                                       "albedo",
+                                       "lights",
+                                       "per_frame_gain",
+                                       "white",
+                                       "threads",
+                                       "force",
+                                       "command_line"};
+    std::set<std::string> known(std::begin(keys), std::end(keys));
+    std::string unknown, valid;
+    for (const char* k : keys)
+        valid += std::string(valid.empty() ? "" : ", ") + k;
+    for (const FileNode& c : fn)
+        if (!known.count(c.name())) unknown += std::string(unknown.empty() ? "" : ", ") + c.name();
+    if (!unknown.empty())
+        CV_Error(Error::StsBadArg,
+                 "InsertionParams: unknown key(s) " + unknown + " (valid: " + valid + ")");
+    auto str = [&](const char* k, std::string& v) {
+        if (!fn[k].empty()) v = (std::string)fn[k];
+    };
+    auto i32 = [&](const char* k, int& v) {
+        if (!fn[k].empty()) v = (int)fn[k];
+    };
+    auto f64 = [&](const char* k, double& v) {
+        if (!fn[k].empty()) v = (double)fn[k];
+    };
+    auto flag = [&](const char* k, bool& v) {
+        if (!fn[k].empty()) v = (int)fn[k] != 0;
+    };
+    str("video", video);
+    str("scene", scene);
+    str("cameras", cameras);
+    str("out", out);
+    str("work", work);
+    if (!fn["place"].empty()) {
+        const FileNode pl = fn["place"];
+        if (!pl.isSeq() || pl.size() != 2)
+            CV_Error(Error::StsBadArg, "InsertionParams.place: expected [u, v]");
+        has_place = true;
+        place = Point2d((double)pl[0], (double)pl[1]);
+    }
+    i32("spp", spp);
+    i32("adaptive_min_spp", adaptive_min_spp);
+    f64("adaptive_error", adaptive_error);
+    f64("adaptive_roulette", adaptive_roulette);
+    f64("texture_cone", texture_cone);
+    i32("first", first);
+    i32("end", end);
+    flag("prepare_only", prepare_only);
+    flag("keep_exr", keep_exr);
+    if (!fn["texture_mode"].empty())
+        texture_mode = (TextureMode)parseWord(fn["texture_mode"], "texture_mode", kTextureWords);
+    if (!fn["albedo"].empty())
+        albedo = (AlbedoMethod)parseWord(fn["albedo"], "albedo", kAlbedoWords);
+    if (!fn["lights"].empty())
+        lights = (LightsMethod)parseWord(fn["lights"], "lights", kLightsWords);
+    flag("per_frame_gain", per_frame_gain);
+    f64("white", white);
+    i32("threads", threads);
+    flag("force", force);
+    str("command_line", command_line);
+}
+
+void InsertionParams::write(FileStorage& fs) const {
+    fs << "video" << video << "scene" << scene << "cameras" << cameras << "out" << out << "work"
+       << work;
+    if (has_place)
+        fs << "place"
+           << "[:" << place.x << place.y << "]";
+    fs << "spp" << spp << "adaptive_min_spp" << adaptive_min_spp << "adaptive_error"
+       << adaptive_error << "adaptive_roulette" << adaptive_roulette << "texture_cone"
+       << texture_cone << "first" << first << "end" << end << "prepare_only" << (int)prepare_only
+       << "keep_exr" << (int)keep_exr << "texture_mode" << toString(texture_mode) << "albedo"
+       << toString(albedo) << "lights" << toString(lights) << "per_frame_gain"
+       << (int)per_frame_gain << "white" << white << "threads" << threads << "force" << (int)force;
+}
+
+void InsertionParams::check() const {
+    auto bad = [](const std::string& what) {
+        CV_Error(Error::StsOutOfRange, "InsertionParams." + what);
+    };
+    if (video.empty()) bad("video: no input video given");
+    if (scene.empty()) bad("scene: no scene file given");
+    if (out.empty()) bad("out: no output video given");
+    if (spp < 0) bad(format("spp = %d: expected >= 0 (0: the scene's render.spp)", spp));
+    if (adaptive_min_spp < 0)
+        bad(format("adaptive_min_spp = %d: expected >= 0 (0: off)", adaptive_min_spp));
+    if (!(adaptive_error >= 1e-3 && adaptive_error <= 255))
+        bad(format("adaptive_error = %g: expected in [0.001, 255]", adaptive_error));
+    if (!(adaptive_roulette >= 0 && adaptive_roulette <= 1))
+        bad(format("adaptive_roulette = %g: expected in [0, 1]", adaptive_roulette));
+    if (!(texture_cone >= 0 && texture_cone <= 3.2))
+        bad(format("texture_cone = %g: expected in [0, 3.2] radians", texture_cone));
+    if (first < 0) bad(format("first = %d: expected >= 0", first));
+    if (end >= 0 && end <= first)
+        bad(format("end = %d: expected > first (%d), or -1 for the last frame", end, first));
+    if (texture_mode < 0 || texture_mode > TEXTURE_PER_FRAME)
+        bad(format("texture_mode = %d: expected TEXTURE_ACCUMULATE or TEXTURE_PER_FRAME",
+                   (int)texture_mode));
+    if (albedo < 0 || albedo > ALBEDO_RETINEX)
+        bad(format("albedo = %d: expected ALBEDO_IRRADIANCE or ALBEDO_RETINEX", (int)albedo));
+    if (lights < 0 || lights > LIGHTS_NONE)
+        bad(format("lights = %d: expected LIGHTS_NNLS, LIGHTS_HILL_CLIMB or LIGHTS_NONE",
+                   (int)lights));
+    if (!(white >= 0 && white <= 1)) bad(format("white = %g: expected in [0, 1]", white));
+    if (threads < 0) bad(format("threads = %d: expected >= 0 (0: all cores)", threads));
+}
+
+}  // namespace vbme
+}  // namespace cv

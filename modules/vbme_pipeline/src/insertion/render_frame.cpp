@@ -1,0 +1,33 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Insertion stage 6: one frame. A differential render of the prepared scene from the frame's
+// camera (shared samples, fixed seed), composited onto the input frame.
+#include "insertion/stages.hpp"
+#include "opencv2/vbme/render/differential.hpp"
+
+namespace cv {
+namespace vbme {
+
+void renderInsertionFrame(PreparedInsertion& prepared, int i, InputArray frame,
+                          OutputArray composite, DifferentialImages* layers,
+                          Mat* composite_linear) {
+    CV_Assert(i >= 0 && i < (int)prepared.path.frames.size());
+    CV_Assert(frame.size() == prepared.scene.image_size);
+    if (!prepared.render_scene) prepared.render_scene = RenderScene::create(prepared.scene);
+    if (!prepared.renderer) {
+        DifferentialRenderer::Params dp;
+        dp.render = prepared.render;
+        prepared.renderer = DifferentialRenderer::create(dp);
+    }
+    CompositeParams cp;
+    cp.response = prepared.scene.camera.response;
+    DifferentialImages local;
+    DifferentialImages& im = layers ? *layers : local;
+    prepared.renderer->render(*prepared.render_scene, prepared.camera(i), im);
+    Mat linear;
+    compositeDifferential(frame, im.obj, im.diff, im.mask, linear, cp);
+    encodeComposite(linear, composite, cp.response, frame.depth());
+    if (composite_linear) *composite_linear = linear;
+}
+
+}  // namespace vbme
+}  // namespace cv
