@@ -27,14 +27,12 @@ int main(int argc, char** argv) {
         p.force = true;
         // stages and their progress
         PipelineReport report;
-        PreparedInsertion prepared =
-            prepareInsertion(p,
-                             [](const std::string& stage, cv::int64 done, cv::int64 total) {
-                                 if (done == total)
-                                     std::printf("%s: %lld done\n", stage.c_str(),
-                                                 (long long)done);
-                             },
-                             &report);
+        PreparedInsertion prepared = prepareInsertion(
+            p,
+            [](const std::string& stage, int64 done, int64 total) {
+                if (done == total) std::printf("%s: %lld done\n", stage.c_str(), (long long)done);
+            },
+            &report);
         std::printf("prepared in %s (%s), white scale %.3f\n", prepared.work.c_str(),
                     prepared.reused ? "reused" : "made now", prepared.white_scale);
         // frames
@@ -43,7 +41,7 @@ int main(int argc, char** argv) {
         VideoSink out(p.out, in.fps(), prepared.scene.image_size, sinkOptionsFrom(in, p.out));
         cv::Mat frame, composite;
         for (int i = 0; i < prepared.frames && in.read(frame); ++i) {
-            const cv::int64 t0 = cv::getTickCount();
+            const int64 t0 = cv::getTickCount();
             renderInsertionFrame(prepared, i, frame, composite);
             out.write(composite, prepared.timestamps[i]);
             std::printf("frame %d: %.2f s\n", i,

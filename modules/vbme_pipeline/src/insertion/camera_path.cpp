@@ -32,7 +32,7 @@ CameraPath cameraPath(const InsertionParams& p, const Inputs& in, const std::str
         if (fs::exists(path_file)) {
             path = CameraPath::read(path_file);
         } else {
-            StageTimer timer(report, "tracking");
+            ScopedTimer timer(stageSeconds(report, "tracking"));
             path = trackCameraVideo(p.video, scene, (fs::path(work) / "tracking").string());
             path.write(path_file);
         }

@@ -83,7 +83,7 @@ void renderFrames(const InsertionParams& p, PreparedInsertion& prep, int first, 
             ++rep.frames_skipped;
             continue;
         }
-        const int64 t0 = getTickCount();
+        ScopedTimer timer(render_seconds);  // render, composite, write
         DifferentialImages im;
         renderInsertionFrame(prep, i, f, enc, p.keep_exr ? &im : nullptr,
                              p.keep_exr ? &linear : nullptr);
@@ -112,7 +112,7 @@ void renderFrames(const InsertionParams& p, PreparedInsertion& prep, int first, 
         std::error_code ec;
         fs::remove(lock_file, ec);
         frame_lock.release();
-        render_seconds += (double)(getTickCount() - t0) / getTickFrequency();
+        timer.stop();
         ++rep.frames_processed;
         if (progress) progress("render", ++done, todo);
     }
@@ -164,9 +164,8 @@ void writeVideo(const InsertionParams& p, const PreparedInsertion& prep,
     }
 }
 
-}  // namespace
-
-PipelineReport runInsertion(const InsertionParams& p, const PipelineProgress& progress) {
+// runInsertion() inside runLimited(p.threads).
+PipelineReport runInsertionLimited(const InsertionParams& p, const PipelineProgress& progress) {
     const int64 t_start = getTickCount();
     PipelineReport rep;
     rep.pipeline = "insert";
@@ -205,11 +204,21 @@ PipelineReport runInsertion(const InsertionParams& p, const PipelineProgress& pr
     if (rep.missing.empty() && !p.force && fs::exists(p.out)) {
         rep.video_written = true;  // made meanwhile by another process on this work folder
     } else if (rep.missing.empty()) {
-        StageTimer timer(&rep, "encode");
+        ScopedTimer timer(stageSeconds(&rep, "encode"));
         writeVideo(p, prep, progress);
         rep.video_written = true;
     }
     finish();
+    return rep;
+}
+
+}  // namespace
+
+PipelineReport runInsertion(const InsertionParams& p, const PipelineProgress& progress) {
+    // TBB work (the path tracer, irradiance albedo) limited to p.threads; OpenCV's own loops
+    // are not (runLimited()); the process-wide cv::setNumThreads is left alone
+    PipelineReport rep;
+    runLimited(p.threads, [&] { rep = runInsertionLimited(p, progress); });
     return rep;
 }
 

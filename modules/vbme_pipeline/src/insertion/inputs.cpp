@@ -70,7 +70,7 @@ Inputs readInputs(const InsertionParams& p, const PipelineProgress& progress,
     // folders and (approximately) from the container otherwise: keep those of the expected
     // count; if the count turns out different the texture stage decodes the missing ones.
     {
-        StageTimer timer(report, "video");
+        ScopedTimer timer(stageSeconds(report, "video"));
         // HDR input is converted to sRGB-encoded BT.709, which only the `srgb` response describes
         VideoReadOptions ro;
         if (scene.camera.response != Response::SRGB) {

@@ -1,8 +1,8 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // InsertionParams: the enums' words, read / write / check.
 #include <filesystem>
-#include <set>
 
+#include "opencv2/vbme/core/utility.hpp"
 #include "opencv2/vbme/pipeline/insertion.hpp"
 
 namespace cv {
@@ -48,82 +48,39 @@ std::string InsertionParams::workFolder() const {
 }
 
 void InsertionParams::read(const FileNode& fn) {
-    static const char* const keys[] = {"video",
-                                       "scene",
-                                       "cameras",
-                                       "out",
-                                       "work",
-                                       "place",
-                                       "spp",
-                                       "adaptive_min_spp",
-                                       "adaptive_error",
-                                       "adaptive_roulette",
-                                       "texture_cone",
-                                       "first",
-                                       "end",
-                                       "prepare_only",
-                                       "keep_exr",
-                                       "texture_mode",
-                                       "albedo",
-                                       "lights",
-                                       "per_frame_gain",
-                                       "white",
-                                       "threads",
-                                       "force",
-                                       "command_line"};
-    std::set<std::string> known(std::begin(keys), std::end(keys));
-    std::string unknown, valid;
-    for (const char* k : keys)
-        valid += std::string(valid.empty() ? "" : ", ") + k;
-    for (const FileNode& c : fn)
-        if (!known.count(c.name())) unknown += std::string(unknown.empty() ? "" : ", ") + c.name();
-    if (!unknown.empty())
-        CV_Error(Error::StsBadArg,
-                 "InsertionParams: unknown key(s) " + unknown + " (valid: " + valid + ")");
-    auto str = [&](const char* k, std::string& v) {
-        if (!fn[k].empty()) v = (std::string)fn[k];
-    };
-    auto i32 = [&](const char* k, int& v) {
-        if (!fn[k].empty()) v = (int)fn[k];
-    };
-    auto f64 = [&](const char* k, double& v) {
-        if (!fn[k].empty()) v = (double)fn[k];
-    };
-    auto flag = [&](const char* k, bool& v) {
-        if (!fn[k].empty()) v = (int)fn[k] != 0;
-    };
-    str("video", video);
-    str("scene", scene);
-    str("cameras", cameras);
-    str("out", out);
-    str("work", work);
-    if (!fn["place"].empty()) {
-        const FileNode pl = fn["place"];
+    ParamsReader r(fn, "InsertionParams");
+    r("video", video);
+    r("scene", scene);
+    r("cameras", cameras);
+    r("out", out);
+    r("work", work);
+    const FileNode pl = r.node("place");
+    if (!pl.empty()) {
         if (!pl.isSeq() || pl.size() != 2)
             CV_Error(Error::StsBadArg, "InsertionParams.place: expected [u, v]");
         has_place = true;
         place = Point2d((double)pl[0], (double)pl[1]);
     }
-    i32("spp", spp);
-    i32("adaptive_min_spp", adaptive_min_spp);
-    f64("adaptive_error", adaptive_error);
-    f64("adaptive_roulette", adaptive_roulette);
-    f64("texture_cone", texture_cone);
-    i32("first", first);
-    i32("end", end);
-    flag("prepare_only", prepare_only);
-    flag("keep_exr", keep_exr);
-    if (!fn["texture_mode"].empty())
-        texture_mode = (TextureMode)parseWord(fn["texture_mode"], "texture_mode", kTextureWords);
-    if (!fn["albedo"].empty())
-        albedo = (AlbedoMethod)parseWord(fn["albedo"], "albedo", kAlbedoWords);
-    if (!fn["lights"].empty())
-        lights = (LightsMethod)parseWord(fn["lights"], "lights", kLightsWords);
-    flag("per_frame_gain", per_frame_gain);
-    f64("white", white);
-    i32("threads", threads);
-    flag("force", force);
-    str("command_line", command_line);
+    r("spp", spp);
+    r("adaptive_min_spp", adaptive_min_spp);
+    r("adaptive_error", adaptive_error);
+    r("adaptive_roulette", adaptive_roulette);
+    r("texture_cone", texture_cone);
+    r("first", first);
+    r("end", end);
+    r("prepare_only", prepare_only);
+    r("keep_exr", keep_exr);
+    if (r.has("texture_mode"))
+        texture_mode =
+            (TextureMode)parseWord(r.node("texture_mode"), "texture_mode", kTextureWords);
+    if (r.has("albedo")) albedo = (AlbedoMethod)parseWord(r.node("albedo"), "albedo", kAlbedoWords);
+    if (r.has("lights")) lights = (LightsMethod)parseWord(r.node("lights"), "lights", kLightsWords);
+    r("per_frame_gain", per_frame_gain);
+    r("white", white);
+    r("threads", threads);
+    r("force", force);
+    r("command_line", command_line);
+    r.finish();
 }
 
 void InsertionParams::write(FileStorage& fs) const {

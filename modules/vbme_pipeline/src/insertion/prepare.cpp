@@ -35,8 +35,10 @@ Renderer::Params frameRenderParams(const InsertionParams& p, const Scene& prepar
 
 }  // namespace
 
-PreparedInsertion prepareInsertion(const InsertionParams& p, const PipelineProgress& progress,
-                                   PipelineReport* report) {
+namespace {
+
+PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgress& progress,
+                                 PipelineReport* report) {
     p.check();
     const std::string work = p.workFolder();
     if (report) report->work = work;
@@ -76,7 +78,7 @@ PreparedInsertion prepareInsertion(const InsertionParams& p, const PipelineProgr
         const Scene& scene = in.scene;
         RoomRadiance radiance;
         {
-            StageTimer timer(report, "textures");
+            ScopedTimer timer(stageSeconds(report, "textures"));
             radiance = roomTextures(p, in, path, work, progress);
         }
         in.video.kept.clear();     // the frames are no longer needed
@@ -84,13 +86,13 @@ PreparedInsertion prepareInsertion(const InsertionParams& p, const PipelineProgr
         room_scene.objects.clear();
         room_scene.room.textures.clear();
         {
-            StageTimer timer(report, "albedo");
+            ScopedTimer timer(stageSeconds(report, "albedo"));
             if (progress) progress("albedo", 0, 1);
             rec.white_scale = roomAlbedo(p, radiance, room_scene, work, fp);
             if (progress) progress("albedo", 1, 1);
         }
         {
-            StageTimer timer(report, "lights");
+            ScopedTimer timer(stageSeconds(report, "lights"));
             if (progress) progress("lights", 0, 1);
             rec.lights = roomLights(p, radiance, room_scene);
             if (progress) progress("lights", 1, 1);
@@ -118,6 +120,15 @@ PreparedInsertion prepareInsertion(const InsertionParams& p, const PipelineProgr
                 report->setFigure(format("light%d_scale_%c", (int)i, "rgb"[c]),
                                   out.lights.scale[i][c]);
     }
+    return out;
+}
+
+}  // namespace
+
+PreparedInsertion prepareInsertion(const InsertionParams& p, const PipelineProgress& progress,
+                                   PipelineReport* report) {
+    PreparedInsertion out;
+    runLimited(p.threads, [&] { out = prepareLimited(p, progress, report); });
     return out;
 }
 

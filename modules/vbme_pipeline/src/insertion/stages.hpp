@@ -4,12 +4,14 @@
 #ifndef VBME_PIPELINE_INSERTION_STAGES_HPP
 #define VBME_PIPELINE_INSERTION_STAGES_HPP
 
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "opencv2/vbme/core/utility.hpp"
 #include "opencv2/vbme/pipeline/insertion.hpp"
 #include "opencv2/vbme/version.hpp"
 
@@ -58,17 +60,12 @@ void lockWork(FileLock& lock, const std::string& work, const PipelineProgress& p
 std::string frameFile(const std::string& work, int i);  //!< <work>/frames/frame_%05d.png
 std::string exrFile(const std::string& work, int i);    //!< <work>/exr/frame_%05d.exr
 
-/** Adds the wall seconds from construction to destruction to a report's stage. */
-class StageTimer {
-public:
-    StageTimer(PipelineReport* report, const char* stage);
-    ~StageTimer();
-
-private:
-    PipelineReport* report_;
-    const char* stage_;
-    int64 t0_;
-};
+/** A ScopedTimer that adds its seconds to stage @p stage of @p report (if not null). */
+inline std::function<void(double)> stageSeconds(PipelineReport* report, const char* stage) {
+    return [report, stage](double s) {
+        if (report) report->addSeconds(stage, s);
+    };
+}
 
 // ------------------------------------------------------------------ inputs (inputs.cpp)
 

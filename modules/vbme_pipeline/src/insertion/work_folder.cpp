@@ -1,5 +1,5 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-// The insertion's work folder: fingerprints, locks, file names, stage timers.
+// The insertion's work folder: fingerprints, locks, file names.
 #include <fcntl.h>
 #include <sys/file.h>
 #include <unistd.h>
@@ -96,13 +96,6 @@ std::string frameFile(const std::string& work, int i) {
 
 std::string exrFile(const std::string& work, int i) {
     return (fs::path(work) / "exr" / format("frame_%05d.exr", i)).string();
-}
-
-StageTimer::StageTimer(PipelineReport* report, const char* stage)
-    : report_(report), stage_(stage), t0_(getTickCount()) {}
-
-StageTimer::~StageTimer() {
-    if (report_) report_->addSeconds(stage_, (double)(getTickCount() - t0_) / getTickFrequency());
 }
 
 }  // namespace insertion

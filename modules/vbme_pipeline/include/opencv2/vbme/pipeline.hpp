@@ -5,7 +5,8 @@
 /**
 @defgroup vbme_pipeline End-to-end pipelines
 The two jobs of vbme as C++ calls: material editing of a filmed object (runMaterialEdit) and
-insertion of synthetic objects into hand-held footage of a room (runInsertion). The `vbme
+insertion of synthetic objects into hand-held footage of a room (runInsertion; its stages
+prepareInsertion and renderInsertionFrame). The `vbme
 material-edit` and `vbme insert` commands are thin wrappers around them.
 */
 
