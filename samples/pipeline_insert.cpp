@@ -44,8 +44,10 @@ int main(int argc, char** argv) {
             const int64 t0 = cv::getTickCount();
             renderInsertionFrame(prepared, i, frame, composite);
             out.write(composite, prepared.timestamps[i]);
-            std::printf("frame %d: %.2f s\n", i,
-                        (double)(cv::getTickCount() - t0) / cv::getTickFrequency());
+            const double seconds = (double)(cv::getTickCount() - t0) / cv::getTickFrequency();
+            report.addSeconds("render", seconds);
+            ++report.frames_processed;
+            std::printf("frame %d: %.2f s\n", i, seconds);
         }
         out.close();
         report.print(std::cout);

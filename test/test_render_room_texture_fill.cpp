@@ -34,6 +34,24 @@ double meanAbsInside(const Mat& a, const Mat& b, const Mat& mask) {
     return (m[0] + m[1] + m[2]) / 3;
 }
 
+// Fills @p truth with the texels where @p seen is 0 zeroed (as the accumulator leaves them);
+// checks that the seen texels stay bit for bit and returns the mean error of the fill inside the
+// hole, and in @p naive_error that of the naive fill (the seen texels' mean).
+double fillError(const Mat& truth, const Mat& seen, double& naive_error, Mat* filled = nullptr) {
+    const Mat hole = seen == 0;
+    Mat tex = truth.clone();
+    tex.setTo(Scalar::all(0), hole);
+    fillUnseenTexels(tex, seen);
+    Mat diff;
+    absdiff(tex, truth, diff);
+    EXPECT_EQ(norm(diff, NORM_INF, seen), 0.0);
+    Mat naive = truth.clone();
+    naive.setTo(mean(truth, seen), hole);
+    naive_error = meanAbsInside(naive, truth, hole);
+    if (filled) *filled = tex;
+    return meanAbsInside(tex, truth, hole);
+}
+
 }  // namespace
 
 // A hole in a periodic texture comes back close to the truth (much closer than the mean of the
@@ -42,22 +60,9 @@ TEST(RenderRoomTextureFill, RecoversAPeriodicTextureAndKeepsSeenTexels) {
     for (const float scale : {1.0f, 7.5f}) {
         const Mat truth = tiledTexture(Size(96, 80), 16, scale);
         Mat seen(truth.size(), CV_8U, Scalar(255));
-        const Rect hole(40, 30, 14, 12);
-        seen(hole).setTo(0);
-        Mat tex = truth.clone();
-        tex.setTo(Scalar::all(0), seen == 0);  // the accumulator leaves 0 where unseen
-        const Mat before = tex.clone();
-        fillUnseenTexels(tex, seen);
-        // seen texels untouched
-        Mat diff;
-        absdiff(tex, before, diff);
-        EXPECT_EQ(norm(diff, NORM_INF, seen), 0.0);
-        // unseen texels: the fill against the naive fill (the seen texels' mean)
-        const Mat hmask = seen == 0;
-        Mat naive = truth.clone();
-        naive.setTo(mean(truth, seen), hmask);
-        const double err = meanAbsInside(tex, truth, hmask),
-                     err_naive = meanAbsInside(naive, truth, hmask);
+        seen(Rect(40, 30, 14, 12)).setTo(0);
+        double err_naive = 0;
+        const double err = fillError(truth, seen, err_naive);
         std::printf("scale %.1f: mean |fill - truth| %.4f, naive (mean of seen) %.4f\n", scale, err,
                     err_naive);
         EXPECT_LT(err, 0.5 * err_naive);
@@ -70,20 +75,12 @@ TEST(RenderRoomTextureFill, LargeTexturesAndNothingSeen) {
     const Mat truth = tiledTexture(Size(600, 300), 40, 1.0f);
     Mat seen(truth.size(), CV_8U, Scalar(255));
     seen(Rect(300, 100, 50, 40)).setTo(0);
-    Mat tex = truth.clone();
-    tex.setTo(Scalar::all(0), seen == 0);
-    fillUnseenTexels(tex, seen);
+    double err_naive = 0;
+    Mat tex;
+    const double err = fillError(truth, seen, err_naive, &tex);
     Mat grey;
     cvtColor(tex, grey, COLOR_BGR2GRAY);
     EXPECT_EQ(countNonZero(grey(Rect(300, 100, 50, 40)) <= 0), 0);
-    Mat d;
-    absdiff(tex, truth, d);
-    EXPECT_EQ(norm(d, NORM_INF, seen), 0.0);
-    const Mat hmask = seen == 0;
-    Mat naive = truth.clone();
-    naive.setTo(mean(truth, seen), hmask);
-    const double err = meanAbsInside(tex, truth, hmask),
-                 err_naive = meanAbsInside(naive, truth, hmask);
     std::printf("600x300: mean |fill - truth| %.4f, naive %.4f\n", err, err_naive);
     EXPECT_LT(err, err_naive);
 
