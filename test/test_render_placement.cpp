@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include <opencv2/vbme/calib/synthetic_sequence.hpp>
+#include <opencv2/vbme/datasets/room_sequence.hpp>
 #include <opencv2/vbme/render/placement.hpp>
 
 #include "test_render_util.hpp"
