@@ -16,6 +16,7 @@
 
 #include "feature_homography.hpp"
 #include "opencv2/vbme/inpaint/consensus.hpp"
+#include "pushed_frame.hpp"
 
 namespace cv {
 namespace vbme {
@@ -115,16 +116,7 @@ struct Candidate {
     float weight = 0;
 };
 
-bool nearIdentity(const Mat& H, Size size, double tol) {
-    std::vector<Point2f> c = {Point2f(0, 0), Point2f(float(size.width - 1), 0),
-                              Point2f(float(size.width - 1), float(size.height - 1)),
-                              Point2f(0, float(size.height - 1))};
-    std::vector<Point2f> d;
-    perspectiveTransform(c, d, H);
-    for (size_t i = 0; i < c.size(); ++i)
-        if (norm(c[i] - d[i]) > tol) return false;
-    return true;
-}
+using detail::nearIdentity;
 
 inline float lumaOf(const Vec3b& v) {
     return 0.114f * v[0] + 0.587f * v[1] + 0.299f * v[2];
@@ -198,32 +190,8 @@ public:
         if (finished_) CV_Error(Error::StsError, "ConsensusInpainter::push after finish()");
         CFrame f;
         f.index = pushed_;
-        f.image = _frame.getMat().clone();
-        if (f.image.empty() || f.image.type() != CV_8UC3)
-            CV_Error(
-                Error::StsBadArg,
-                format("ConsensusInpainter: frame %d is %s, expected a non-empty CV_8UC3 "
-                       "image",
-                       pushed_, f.image.empty() ? "empty" : typeToString(f.image.type()).c_str()));
-        if (size_.area() == 0) size_ = f.image.size();
-        if (f.image.size() != size_)
-            CV_Error(Error::StsBadSize,
-                     format("ConsensusInpainter: frame %d is %dx%d, earlier frames %dx%d", pushed_,
-                            f.image.cols, f.image.rows, size_.width, size_.height));
-        Mat m = _mask.getMat();
-        if (m.empty()) {
-            f.hole = Mat::zeros(size_, CV_8U);
-        } else {
-            if (m.type() != CV_8UC1)
-                CV_Error(Error::StsBadArg, format("ConsensusInpainter: mask %d is %s, expected "
-                                                  "CV_8UC1",
-                                                  pushed_, typeToString(m.type()).c_str()));
-            if (m.size() != size_)
-                CV_Error(Error::StsBadSize,
-                         format("ConsensusInpainter: mask %d is %dx%d but the frame is %dx%d",
-                                pushed_, m.cols, m.rows, size_.width, size_.height));
-            compare(m, 0, f.hole, CMP_NE);
-        }
+        detail::checkPushedFrame("ConsensusInpainter", pushed_, _frame, _mask, size_, f.image,
+                                 f.hole);
         f.area = countNonZero(f.hole);
         if (f.area > 0) {
             const Moments mo = moments(f.hole, true);
@@ -291,28 +259,7 @@ private:
         if (H.empty()) return Mat::eye(3, 3, CV_64F);
         // Sub-pixel refinement: corners of a tracked into b by pyramidal Lucas-Kanade from the
         // positions H predicts, and a homography fitted to them.
-        std::vector<Point2f> ca, cb, ra, rb;
-        goodFeaturesToTrack(a.gray, ca, 500, 0.01, 6, a.usable, 5);
-        if (ca.size() >= 20) {
-            perspectiveTransform(ca, cb, H);
-            std::vector<uchar> ok;
-            std::vector<float> err;
-            calcOpticalFlowPyrLK(a.gray, b.gray, ca, cb, ok, err, Size(21, 21), 2,
-                                 TermCriteria(TermCriteria::COUNT | TermCriteria::EPS, 30, 0.005),
-                                 OPTFLOW_USE_INITIAL_FLOW);
-            for (size_t k = 0; k < ca.size(); ++k) {
-                const Point p(cvRound(cb[k].x), cvRound(cb[k].y));
-                if (ok[k] && Rect(Point(), size_).contains(p) && b.usable.at<uchar>(p)) {
-                    ra.push_back(ca[k]);
-                    rb.push_back(cb[k]);
-                }
-            }
-            if (ra.size() >= 20) {
-                std::vector<uchar> inl;
-                Mat R = findHomography(ra, rb, RANSAC, 0.7, inl, 2000, 0.999);
-                if (!R.empty() && countNonZero(inl) >= 20) H = R;
-            }
-        }
+        H = detail::refineHomographyByFlow(a.gray, b.gray, a.usable, b.usable, size_, H, 500, 0.7);
         if (nearIdentity(H, size_, p_.identity_tolerance)) return Mat::eye(3, 3, CV_64F);
         return H;
     }

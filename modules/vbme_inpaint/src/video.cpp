@@ -12,6 +12,7 @@
 
 #include "feature_homography.hpp"
 #include "opencv2/vbme/inpaint/video.hpp"
+#include "pushed_frame.hpp"
 
 namespace cv {
 namespace vbme {
@@ -71,32 +72,7 @@ public:
         if (finished_) CV_Error(Error::StsError, "VideoInpainter::push after finish()");
         Frame f;
         f.index = pushed_;
-        f.image = _frame.getMat().clone();
-        if (f.image.empty() || f.image.type() != CV_8UC3)
-            CV_Error(
-                Error::StsBadArg,
-                cv::format("VideoInpainter: frame %d is %s, expected a non-empty CV_8UC3 image",
-                           pushed_,
-                           f.image.empty() ? "empty" : typeToString(f.image.type()).c_str()));
-        if (size_.area() == 0) size_ = f.image.size();
-        if (f.image.size() != size_)
-            CV_Error(Error::StsBadSize,
-                     cv::format("VideoInpainter: frame %d is %dx%d, earlier frames %dx%d", pushed_,
-                                f.image.cols, f.image.rows, size_.width, size_.height));
-        Mat m = _mask.getMat();
-        if (m.empty()) {
-            f.hole = Mat::zeros(size_, CV_8U);
-        } else {
-            if (m.type() != CV_8UC1)
-                CV_Error(Error::StsBadArg,
-                         cv::format("VideoInpainter: mask %d is %s, expected CV_8UC1", pushed_,
-                                    typeToString(m.type()).c_str()));
-            if (m.size() != size_)
-                CV_Error(Error::StsBadSize,
-                         cv::format("VideoInpainter: mask %d is %dx%d but the frame is %dx%d",
-                                    pushed_, m.cols, m.rows, size_.width, size_.height));
-            compare(m, 0, f.hole, CMP_NE);
-        }
+        detail::checkPushedFrame("VideoInpainter", pushed_, _frame, _mask, size_, f.image, f.hole);
         if (p_.hole_margin > 0) {
             Mat grown;
             dilate(f.hole, grown,
@@ -163,50 +139,17 @@ private:
         ensureFeatures(ft);
         ensureFeatures(fs);
         H = detail::featureHomography(fs.keypoints, fs.descriptors, ft.keypoints, ft.descriptors);
-        if (!H.empty() && p_.refine_alignment && !nearIdentity(H, size_, p_.identity_tolerance)) {
+        if (!H.empty() && p_.refine_alignment &&
+            !detail::nearIdentity(H, size_, p_.identity_tolerance)) {
             // Sub-pixel refinement: corners of frame s tracked into frame t by pyramidal
             // Lucas-Kanade from the positions H predicts, then a homography fitted to them.
             Mat gs, gt;
             cvtColor(fs.image, gs, COLOR_BGR2GRAY);
             cvtColor(ft.image, gt, COLOR_BGR2GRAY);
-            std::vector<Point2f> a, b, pa, pb;
-            goodFeaturesToTrack(gs, a, 600, 0.01, 6, fs.usable, 5);
-            if (a.size() >= 20) {
-                perspectiveTransform(a, b, H);
-                std::vector<uchar> ok;
-                std::vector<float> err;
-                calcOpticalFlowPyrLK(
-                    gs, gt, a, b, ok, err, Size(21, 21), 2,
-                    TermCriteria(TermCriteria::COUNT | TermCriteria::EPS, 30, 0.005),
-                    OPTFLOW_USE_INITIAL_FLOW);
-                for (size_t k = 0; k < a.size(); ++k) {
-                    const Point p(cvRound(b[k].x), cvRound(b[k].y));
-                    if (ok[k] && Rect(Point(), size_).contains(p) && ft.usable.at<uchar>(p)) {
-                        pa.push_back(a[k]);
-                        pb.push_back(b[k]);
-                    }
-                }
-                if (pa.size() >= 20) {
-                    std::vector<uchar> inl;
-                    Mat R = findHomography(pa, pb, RANSAC, 0.5, inl, 2000, 0.999);
-                    if (!R.empty() && countNonZero(inl) >= 20) H = R;
-                }
-            }
+            H = detail::refineHomographyByFlow(gs, gt, fs.usable, ft.usable, size_, H, 600, 0.5);
         }
         homographies_[key] = H;
         return H;
-    }
-
-    static bool nearIdentity(const Mat& H, Size size, double tol) {
-        if (H.empty()) return false;
-        std::vector<Point2f> c = {Point2f(0, 0), Point2f(float(size.width - 1), 0),
-                                  Point2f(float(size.width - 1), float(size.height - 1)),
-                                  Point2f(0, float(size.height - 1))};
-        std::vector<Point2f> d;
-        perspectiveTransform(c, d, H);
-        for (size_t i = 0; i < c.size(); ++i)
-            if (norm(c[i] - d[i]) > tol) return false;
-        return true;
     }
 
     /** Warps @p img and @p usable of a frame into frame t's view by @p H (empty = identity). */
@@ -322,7 +265,7 @@ private:
         double bestErr = ringError(ft.image, simg, susable, ring);
         Mat best;
         bool ok = bestErr >= 0 && bestErr <= p_.max_ring_error;
-        if (!est.empty() && !nearIdentity(est, size_, p_.identity_tolerance)) {
+        if (!est.empty() && !detail::nearIdentity(est, size_, p_.identity_tolerance)) {
             Mat wimg, wusable;
             warp(simg, susable, est, wimg, wusable);
             const double e = ringError(ft.image, wimg, wusable, ring);
