@@ -280,18 +280,12 @@ void FrameAnnotation::write(FileStorage& fs) const {
                 writePoints(fs, kv.first, kv.second);
             fs << "}";
         }
-        if (!room.wall_corners.empty()) {
-            fs << "wall_corners"
-               << "[";
-            for (const auto& c : room.wall_corners) {
-                fs << "{"
-                   << "walls"
-                   << "[:" << c.wall_a << c.wall_b << "]";
-                writePoints(fs, "points", c.points);
-                fs << "}";
-            }
-            fs << "]";
-        }
+        writeMapSeq(fs, "wall_corners", room.wall_corners,
+                    [&](const RoomAnnotation::WallCorner& c) {
+                        fs << "walls"
+                           << "[:" << c.wall_a << c.wall_b << "]";
+                        writePoints(fs, "points", c.points);
+                    });
         if (!room.faces.empty()) {
             fs << "faces"
                << "{";
@@ -301,25 +295,17 @@ void FrameAnnotation::write(FileStorage& fs) const {
         }
         fs << "}";
     }
-    if (!lights.empty()) {
-        fs << "lights"
-           << "[";
-        for (const auto& l : lights) {
-            fs << "{";
-            writePoints(fs, "polygon", l.polygon);
-            if (!l.face.empty()) fs << "face" << l.face;
-            if (l.has_radiance) writeVec3(fs, "radiance", l.radiance);
-            fs << "}";
-        }
-        fs << "]";
-    }
+    writeMapSeq(fs, "lights", lights, [&](const LightAnnotation& l) {
+        writePoints(fs, "polygon", l.polygon);
+        if (!l.face.empty()) fs << "face" << l.face;
+        if (l.has_radiance) writeVec3(fs, "radiance", l.radiance);
+    });
 }
 
 void FrameAnnotation::write(const std::string& path) const {
     AtomicFile out(path);
     {
-        FileStorage fs(out.tempPath(), FileStorage::WRITE);
-        if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot write");
+        FileStorage fs = openForWriting(out);
         write(fs);
     }
     out.commit();

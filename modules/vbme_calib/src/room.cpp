@@ -13,15 +13,11 @@ namespace vbme {
 namespace detail {
 
 int faceIndex(const std::string& name, const std::string& field) {
-    const auto& names = Room::faceNames();
-    for (size_t i = 0; i < names.size(); ++i)
-        if (names[i] == name) return (int)i;
-    CV_Error(Error::StsBadArg, field + ": unknown face '" + name +
-                                   "' (expected floor, ceiling, left, right, front or back)");
-}
-
-int faceAxis(int face) {
-    return face <= 1 ? 2 : (face <= 3 ? 0 : 1);
+    const int i = Room::findFace(name);
+    if (i < 0)
+        CV_Error(Error::StsBadArg, field + ": unknown face '" + name +
+                                       "' (expected floor, ceiling, left, right, front or back)");
+    return i;
 }
 
 static int wallIndex(const std::string& name, const std::string& field) {
@@ -87,7 +83,7 @@ void solveFaces(const Camera& camera, const RoomAnnotation& ann, bool use_number
     for (const auto& c : ann.wall_corners) {
         const int a = wallIndex(c.wall_a, "room.wall_corners"),
                   b = wallIndex(c.wall_b, "room.wall_corners");
-        if (faceAxis(a) == faceAxis(b))
+        if (Room::faceAxis(a) == Room::faceAxis(b))
             CV_Error(Error::StsBadArg, "room.wall_corners: walls '" + c.wall_a + "' and '" +
                                            c.wall_b +
                                            "' are parallel; a corner joins a "
@@ -98,7 +94,7 @@ void solveFaces(const Camera& camera, const RoomAnnotation& ann, bool use_number
     for (int pass = 0; pass < 8; ++pass) {
         bool changed = false;
         for (const auto& e : edges) {
-            const int ax = faceAxis(e.wall);
+            const int ax = Room::faceAxis(e.wall);
             const int other = 1 - ax;
             if (!known[e.plane] && !known[e.wall]) continue;
             if (known[e.plane] && known[e.wall]) continue;
@@ -163,7 +159,7 @@ void solveFaces(const Camera& camera, const RoomAnnotation& ann, bool use_number
         for (const auto& c : ann.wall_corners) {
             const int a = wallIndex(c.wall_a, "room.wall_corners");
             const int b = wallIndex(c.wall_b, "room.wall_corners");
-            const int wx = faceAxis(a) == 0 ? a : b, wy = faceAxis(a) == 0 ? b : a;
+            const int wx = Room::faceAxis(a) == 0 ? a : b, wy = Room::faceAxis(a) == 0 ? b : a;
             if (known[wx] == known[wy]) continue;
             std::vector<double> vals;
             for (const auto& px : c.points) {
@@ -233,7 +229,7 @@ std::string faceSeenAt(const Camera& camera, const Room& room, const Point2d& px
     double best = 1e300;
     int face = -1;
     for (int f = 0; f < 6; ++f) {
-        const int ax = detail::faceAxis(f);
+        const int ax = Room::faceAxis(f);
         const double coord = (f % 2 == 0) ? room.min[ax] : room.max[ax];
         if (std::abs(d[ax]) < 1e-12) continue;
         const double s = (coord - C[ax]) / d[ax];
@@ -277,7 +273,7 @@ Light projectLight(const Camera& camera, const Room& room, const LightAnnotation
     centre *= 1.0 / la.polygon.size();
     const std::string face = la.face.empty() ? faceSeenAt(camera, room, centre) : la.face;
     const int f = detail::faceIndex(face, "light.face");
-    const int ax = detail::faceAxis(f);
+    const int ax = Room::faceAxis(f);
     const double coord = (f % 2 == 0) ? room.min[ax] : room.max[ax];
     const Vec3d C = camera.center();
     Light L;

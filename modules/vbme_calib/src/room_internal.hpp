@@ -13,8 +13,6 @@ namespace detail {
 
 /** Index of a face name in Room::faceNames() (floor, ceiling, left, right, front, back). */
 int faceIndex(const std::string& name, const std::string& field);
-/** World axis a face is perpendicular to (0 x, 1 y, 2 z). */
-int faceAxis(int face);
 /** Determines as many face coordinates as the annotation allows (value/known per face, in
 Room::faceNames() order); @p use_numbers: take RoomAnnotation::faces into account. */
 void solveFaces(const Camera& camera, const RoomAnnotation& ann, bool use_numbers, double value[6],

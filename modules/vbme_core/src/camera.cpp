@@ -18,6 +18,15 @@ Camera Camera::fromFocal(double f, Size size) {
     return c;
 }
 
+double Camera::focalFromFov(int width, double hfov_deg) {
+    if (!(width > 0 && hfov_deg > 0 && hfov_deg < 180))
+        CV_Error(Error::StsBadArg,
+                 format("focalFromFov: width %d, field of view %g degrees; expected a positive "
+                        "width and a field of view in (0, 180) degrees",
+                        width, hfov_deg));
+    return 0.5 * width / std::tan(0.5 * hfov_deg * CV_PI / 180.0);
+}
+
 Point2d Camera::project(const Vec3d& X_world, double* depth) const {
     Vec3d Xc = camFromWorld(X_world);
     if (depth) *depth = Xc[2];

@@ -38,16 +38,7 @@ Camera CameraPath::camera(size_t i) const {
 }
 
 CameraPath CameraPath::read(const std::string& path) {
-    FileStorage fs;
-    try {
-        fs.open(path, FileStorage::READ);
-    } catch (const cv::Exception& e) {
-        CV_Error(Error::StsParseError, path + ": not a readable YAML/JSON file: " + e.err);
-    } catch (const std::exception& e) {  // OpenCV's parsers may throw std::length_error
-        CV_Error(Error::StsParseError,
-                 path + ": not a readable YAML/JSON file: " + std::string(e.what()));
-    }
-    if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open camera-path file");
+    FileStorage fs = openForReading(path, "camera-path file");
     CameraPath p;
     try {
         p.K = Matx33d(readMatrix(fs["K"], 3, 3, "K"));
@@ -88,8 +79,7 @@ CameraPath CameraPath::read(const std::string& path) {
 void CameraPath::write(const std::string& path) const {
     AtomicFile out(path);
     {
-        FileStorage fs(out.tempPath(), FileStorage::WRITE);
-        if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open for writing");
+        FileStorage fs = openForWriting(out);
         fs << "K" << Mat(K);
         if (image_size.area() > 0)
             fs << "image_size"

@@ -101,6 +101,26 @@ void imwriteAtomic(const std::string& path, InputArray img, const std::vector<in
     out.commit();
 }
 
+FileStorage openForReading(const std::string& path, const std::string& what) {
+    FileStorage fs;
+    try {
+        fs.open(path, FileStorage::READ);
+    } catch (const cv::Exception& e) {
+        CV_Error(Error::StsParseError, path + ": not a readable YAML/JSON file: " + e.err);
+    } catch (const std::exception& e) {  // OpenCV's parsers may throw std::length_error
+        CV_Error(Error::StsParseError,
+                 path + ": not a readable YAML/JSON file: " + std::string(e.what()));
+    }
+    if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open " + what);
+    return fs;
+}
+
+FileStorage openForWriting(const AtomicFile& out) {
+    FileStorage fs(out.tempPath(), FileStorage::WRITE);
+    if (!fs.isOpened()) CV_Error(Error::StsError, out.finalPath() + ": cannot open for writing");
+    return fs;
+}
+
 Mat imreadChecked(const std::string& path, int flags) {
     std::error_code ec;
     if (!fs::exists(path, ec)) CV_Error(Error::StsError, "'" + path + "' does not exist");

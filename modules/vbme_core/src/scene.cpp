@@ -239,16 +239,7 @@ void Material::read(const FileNode& node, const std::string& field) {
 }
 
 Material readMaterialFile(const std::string& path) {
-    FileStorage fs;
-    try {
-        fs.open(path, FileStorage::READ);
-    } catch (const cv::Exception& e) {
-        CV_Error(Error::StsParseError, path + ": not a readable YAML/JSON file: " + e.err);
-    } catch (const std::exception& e) {  // OpenCV's parsers may throw std::length_error
-        CV_Error(Error::StsParseError,
-                 path + ": not a readable YAML/JSON file: " + std::string(e.what()));
-    }
-    if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open material file");
+    FileStorage fs = openForReading(path, "material file");
     if (!fs.root().isMap())
         CV_Error(Error::StsParseError, path + ": expected a map with a top-level 'material'");
     FileNode n = fs["material"];
@@ -262,16 +253,10 @@ Material readMaterialFile(const std::string& path) {
     return m;
 }
 
-static FileStorage openForWrite(const std::string& path) {
-    FileStorage fs(path, FileStorage::WRITE);
-    if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open for writing");
-    return fs;
-}
-
 void writeMaterialFile(const std::string& path, const Material& m) {
     AtomicFile out(path);
     {
-        FileStorage fs = openForWrite(out.tempPath());
+        FileStorage fs = openForWriting(out);
         fs << "material"
            << "{";
         m.write(fs);
@@ -311,6 +296,28 @@ const std::vector<std::string>& Room::faceNames() {
     static const std::vector<std::string> names = {"floor", "ceiling", "left",
                                                    "right", "front",   "back"};
     return names;
+}
+
+int Room::findFace(const std::string& name) {
+    const std::vector<std::string>& f = faceNames();
+    for (int i = 0; i < (int)f.size(); ++i)
+        if (f[i] == name) return i;
+    return -1;
+}
+
+int Room::faceIndex(const std::string& name) {
+    const int i = findFace(name);
+    if (i < 0)
+        CV_Error(Error::StsBadArg,
+                 "room face '" + name + "' is not one of floor, ceiling, left, right, front, back");
+    return i;
+}
+
+int Room::faceAxis(int i) {
+    if (i < 0 || i > 5)
+        CV_Error(Error::StsOutOfRange,
+                 cv::format("Room::faceAxis: index %d, expected 0…5 (faceNames() order)", i));
+    return i <= 1 ? 2 : (i <= 3 ? 0 : 1);
 }
 
 // ---------------------------------------------------------------- Scene
@@ -360,11 +367,8 @@ static void readObjects(const FileNode& seq, const std::string& key, const std::
 
 static void writeObjects(FileStorage& fs, const std::string& key, const std::string& base,
                          const std::vector<SceneObject>& objs) {
-    if (objs.empty()) return;
-    fs << key << "[";
-    for (const auto& o : objs) {
-        fs << "{"
-           << "mesh" << relativePath(base, o.mesh);
+    writeMapSeq(fs, key, objs, [&](const SceneObject& o) {
+        fs << "mesh" << relativePath(base, o.mesh);
         fs << "world_from_object" << Mat(o.world_from_object);
         if (o.has_material) {
             fs << "material"
@@ -372,9 +376,7 @@ static void writeObjects(FileStorage& fs, const std::string& key, const std::str
             o.material.write(fs);
             fs << "}";
         }
-        fs << "}";
-    }
-    fs << "]";
+    });
 }
 
 static Scene readSceneImpl(const FileStorage& fs, const std::string& base) {
@@ -495,16 +497,7 @@ std::vector<std::string> Scene::warnings() const {
 }
 
 Scene Scene::read(const std::string& path) {
-    FileStorage fs;
-    try {
-        fs.open(path, FileStorage::READ);
-    } catch (const cv::Exception& e) {
-        CV_Error(Error::StsParseError, path + ": not a readable YAML/JSON file: " + e.err);
-    } catch (const std::exception& e) {  // OpenCV's parsers may throw std::length_error
-        CV_Error(Error::StsParseError,
-                 path + ": not a readable YAML/JSON file: " + std::string(e.what()));
-    }
-    if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open scene file");
+    FileStorage fs = openForReading(path, "scene file");
     try {
         return readSceneImpl(fs, parentFolder(path));
     } catch (const cv::Exception& e) {
@@ -516,7 +509,7 @@ void Scene::write(const std::string& path) const {
     const std::string base = parentFolder(path);
     AtomicFile out(path);
     {
-        FileStorage fs = openForWrite(out.tempPath());
+        FileStorage fs = openForWriting(out);
         fs << "image_size"
            << "[:" << image_size.width << image_size.height << "]";
         fs << "camera"
@@ -537,43 +530,36 @@ void Scene::write(const std::string& path) const {
             }
             fs << "}";
         }
-        if (!lights.empty()) {
-            fs << "lights"
-               << "[";
-            for (const auto& l : lights) {
-                fs << "{"
-                   << "type" << Light::typeName(l.type);
-                switch (l.type) {
-                    case Light::POLYGON:
-                        fs << "corners"
-                           << "[";
-                        for (const auto& c : l.corners)
-                            fs << "[:" << c[0] << c[1] << c[2] << "]";
-                        fs << "]";
+        writeMapSeq(fs, "lights", lights, [&](const Light& l) {
+            fs << "type" << Light::typeName(l.type);
+            switch (l.type) {
+                case Light::POLYGON:
+                    fs << "corners"
+                       << "[";
+                    for (const auto& c : l.corners)
+                        fs << "[:" << c[0] << c[1] << c[2] << "]";
+                    fs << "]";
+                    writeVec3(fs, "radiance", l.radiance);
+                    break;
+                case Light::POINT:
+                    writeVec3(fs, "position", l.position);
+                    writeVec3(fs, "intensity", l.intensity);
+                    break;
+                case Light::DISTANT:
+                    writeVec3(fs, "to_light", l.to_light);
+                    writeVec3(fs, "radiance", l.radiance);
+                    fs << "half_angle_deg" << l.half_angle_deg;
+                    break;
+                case Light::ENVIRONMENT:
+                    if (!l.image.empty()) {
+                        fs << "image" << relativePath(base, l.image) << "scale" << l.scale;
+                        fs << "world_from_env" << Mat(l.world_from_env);
+                    } else {
                         writeVec3(fs, "radiance", l.radiance);
-                        break;
-                    case Light::POINT:
-                        writeVec3(fs, "position", l.position);
-                        writeVec3(fs, "intensity", l.intensity);
-                        break;
-                    case Light::DISTANT:
-                        writeVec3(fs, "to_light", l.to_light);
-                        writeVec3(fs, "radiance", l.radiance);
-                        fs << "half_angle_deg" << l.half_angle_deg;
-                        break;
-                    case Light::ENVIRONMENT:
-                        if (!l.image.empty()) {
-                            fs << "image" << relativePath(base, l.image) << "scale" << l.scale;
-                            fs << "world_from_env" << Mat(l.world_from_env);
-                        } else {
-                            writeVec3(fs, "radiance", l.radiance);
-                        }
-                        break;
-                }
-                fs << "}";
+                    }
+                    break;
             }
-            fs << "]";
-        }
+        });
         writeObjects(fs, "objects", base, objects);
         writeObjects(fs, "proxies", base, proxies);
         fs << "render"

@@ -17,8 +17,6 @@ namespace cv {
 namespace vbme {
 
 using render_detail::lookupUV;
-using render_detail::roomFace;
-using render_detail::RoomFace;
 
 void RetinexParams::read(const FileNode& fn) {
     if (!fn["threshold"].empty()) threshold = (double)fn["threshold"];
@@ -264,7 +262,7 @@ void irradianceAlbedo(const Scene& scene_in, const std::map<std::string, Mat>& r
     parallel_for_(Range(0, 6 * G), [&](const Range& rr) {
         for (int row = rr.start; row < rr.end; ++row) {
             const int f = row / G, gi = row % G;
-            const RoomFace F = roomFace(sc.room, f);
+            const RoomFace F = sc.room.face(f);
             const Vec3f n(F.n);
             // tangent frame
             const Vec3f t1 = normalize(Vec3f(F.right)), t2 = n.cross(t1);
@@ -423,7 +421,7 @@ void irradianceAlbedo(const Scene& scene_in, const std::map<std::string, Mat>& r
     }
     // Unseen texels: the face's mean albedo.
     for (auto& kv : A) {
-        const int f = render_detail::roomFaceIndex(kv.first);
+        const int f = Room::faceIndex(kv.first);
         const Vec3f a = face_albedo[f];
         kv.second.setTo(Scalar(a[0], a[1], a[2]), seen[f] == 0);
     }

@@ -112,31 +112,17 @@ size_t RenderSceneImpl::numTriangles() const {
 
 void RenderSceneImpl::addRoom() {
     const Room& room = scene_.room;
-    const Vec3f lo(room.min), hi(room.max);
-    const Vec3f ex(hi[0] - lo[0], 0, 0), ey(0, hi[1] - lo[1], 0), ez(0, 0, hi[2] - lo[2]);
-    struct Face {
-        const char* name;
-        Vec3f bl, right, up;
-    };
-    // Bottom-left corner, image-right and image-up vectors of each face as seen from inside
-    // (right × up points into the room).
-    const Face faces[6] = {
-        {"floor", lo, ex, ey},
-        {"ceiling", Vec3f(lo[0], hi[1], hi[2]), ex, -ey},
-        {"left", lo, ey, ez},
-        {"right", Vec3f(hi[0], hi[1], lo[2]), -ey, ez},
-        {"front", Vec3f(hi[0], lo[1], lo[2]), -ex, ez},
-        {"back", Vec3f(lo[0], hi[1], lo[2]), ex, ez},
-    };
     GeometryRec g;
     g.kind = GeometryKind::ROOM;
     g.source = 0;
     for (int f = 0; f < 6; ++f) {
-        const Face& F = faces[f];
+        // bottom-left corner, image-right and image-up edges as seen from inside
+        const RoomFace_<float> F = room.face<float>(f);
+        const std::string& name = Room::faceNames()[f];
         const Vec3f c[4] = {F.bl, F.bl + F.right, F.bl + F.right + F.up, F.bl + F.up};
         const Vec2f uv[4] = {Vec2f(0, 0), Vec2f(1, 0), Vec2f(1, 1), Vec2f(0, 1)};
         const uint32_t base = (uint32_t)g.uv.size();
-        const Vec3f n = normalize(F.right.cross(F.up));
+        const Vec3f n = F.n;
         for (int k = 0; k < 4; ++k) {
             g.pos.insert(g.pos.end(), {c[k][0], c[k][1], c[k][2]});
             g.uv.push_back(uv[k]);
@@ -146,10 +132,10 @@ void RenderSceneImpl::addRoom() {
 
         MaterialRec m;
         Ptr<Texture> tex;
-        auto it = room.textures.find(F.name);
+        auto it = room.textures.find(name);
         if (it != room.textures.end())
             tex = Texture::load(it->second, scene_.camera.response, Texture::WRAP_CLAMP,
-                                std::string("room.textures.") + F.name);
+                                "room.textures." + name);
         Material lam;
         lam.type = Material::LAMBERTIAN;
         if (params_.room_emissive) {

@@ -14,10 +14,6 @@
 namespace cv {
 namespace vbme {
 
-using render_detail::roomFace;
-using render_detail::RoomFace;
-using render_detail::roomFaceIndex;
-
 void RoomTextureParams::read(const FileNode& fn) {
     if (!fn["texel_scale"].empty()) texel_scale = (double)fn["texel_scale"];
     if (!fn["min_size"].empty()) min_size = (int)fn["min_size"];
@@ -49,7 +45,7 @@ struct FaceProjector {
     Vec3d bl, right, up, n, c;
     double near_z;
     FaceProjector(const Room& room, int face, const Camera& cam) {
-        const RoomFace F = roomFace(room, face);
+        const RoomFace F = room.face(face);
         const Matx33d M = cam.K * cam.R;
         const Vec3d m = cam.K * cam.t;
         p0 = M * F.bl + m;
@@ -100,19 +96,6 @@ struct Pyramid {
                 mask.push_back(md);
             }
         }
-    }
-    template <typename T>
-    static T bilinear(const Mat& m, double x, double y) {
-        const double xc = std::min(std::max(x, 0.0), double(m.cols - 1));
-        const double yc = std::min(std::max(y, 0.0), double(m.rows - 1));
-        const int x0 = std::min((int)xc, std::max(m.cols - 2, 0));
-        const int y0 = std::min((int)yc, std::max(m.rows - 2, 0));
-        const int x1 = std::min(x0 + 1, m.cols - 1), y1 = std::min(y0 + 1, m.rows - 1);
-        const float ax = float(xc - x0), ay = float(yc - y0);
-        const T* r0 = m.ptr<T>(y0);
-        const T* r1 = m.ptr<T>(y1);
-        return (r0[x0] * (1.f - ax) + r0[x1] * ax) * (1.f - ay) +
-               (r1[x0] * (1.f - ax) + r1[x1] * ax) * ay;
     }
     /** Colour at pixel (x, y) of level 0 filtered for a footprint of @p smax pixels; @p masked
     receives whether an ignored pixel contributes. */
@@ -187,7 +170,7 @@ namespace {
 /** Largest magnification (pixels per metre) at the points of face @p fi that @p camera sees,
 or 0 if it sees none. */
 double seenMagnification(const Room& room, int fi, const Camera& camera) {
-    const RoomFace F = roomFace(room, fi);
+    const RoomFace F = room.face(fi);
     const double fw = norm(F.right), fh = norm(F.up);
     const FaceProjector fp(room, fi, camera);
     const double w = camera.image_size.width, h = camera.image_size.height;
@@ -212,8 +195,8 @@ Size chooseFaceTextureSize(const Room& room, const std::string& face, const Came
     checkRoom(room);
     checkCamera(camera, "chooseFaceTextureSize");
     CV_Assert(p.min_size >= 2 && p.max_size >= p.min_size && p.texel_scale > 0);
-    const int fi = roomFaceIndex(face);
-    const RoomFace F = roomFace(room, fi);
+    const int fi = Room::faceIndex(face);
+    const RoomFace F = room.face(fi);
     const double fw = norm(F.right), fh = norm(F.up);
     double m = seenMagnification(room, fi, camera);  // pixels per metre, sharpest seen point
     if (m <= 0)  // not seen: the largest magnification of the faces that are seen
@@ -244,7 +227,7 @@ void rectifyFace(InputArray frame, const Camera& camera, const Room& room, const
                  Size tex_size, OutputArray texture, OutputArray valid) {
     checkRoom(room);
     checkCamera(camera, "rectifyFace");
-    const int fi = roomFaceIndex(face);
+    const int fi = Room::faceIndex(face);
     if (tex_size.width < 1 || tex_size.height < 1)
         CV_Error(Error::StsBadArg, "rectifyFace: tex_size must be positive");
     Mat f = toFloat3(frame, "rectifyFace");

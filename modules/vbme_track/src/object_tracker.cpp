@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "disk_fitter.hpp"
+#include "opencv2/vbme/core/fileio.hpp"
 
 namespace cv {
 namespace vbme {
@@ -102,16 +103,7 @@ void ObjectTracker::Params::validate() const {
 }
 
 ObjectTracker::Params readTrackerParamsFile(const std::string& path) {
-    FileStorage fs;
-    try {
-        fs.open(path, FileStorage::READ);
-    } catch (const cv::Exception& e) {
-        CV_Error(Error::StsParseError, path + ": not a readable YAML/JSON file: " + e.err);
-    } catch (const std::exception& e) {  // OpenCV's parsers may throw std::length_error
-        CV_Error(Error::StsParseError,
-                 path + ": not a readable YAML/JSON file: " + std::string(e.what()));
-    }
-    if (!fs.isOpened()) CV_Error(Error::StsError, path + ": cannot open the tracker parameters");
+    FileStorage fs = openForReading(path, "the tracker parameters");
     ObjectTracker::Params p;
     try {
         const FileNode n = fs["tracker"].empty() ? fs.root() : fs["tracker"];

@@ -29,6 +29,10 @@ struct CV_EXPORTS Camera {
     /** @brief A camera with focal length @p f (pixels) and the principal point at the centre
     of an image of size @p size; identity pose. */
     static Camera fromFocal(double f, Size size);
+    /** @brief Focal length in pixels of a pinhole camera whose horizontal field of view is
+    @p hfov_deg degrees on an image @p width pixels wide: `(w/2) / tan(hfov/2)`. Throws unless
+    width > 0 and 0 < hfov_deg < 180. */
+    static double focalFromFov(int width, double hfov_deg);
 
     /** @brief Maps a world point to the camera frame (`R * X + t`). */
     Vec3d camFromWorld(const Vec3d& X_world) const { return R * X_world + t; }

@@ -57,6 +57,32 @@ when it is missing or undecodable, when its size is not @p expected_size (unless
 or when it marks no pixel or every pixel. @return the mask as CV_8U, 0 or 255. */
 CV_EXPORTS Mat readObjectMask(const std::string& path, Size expected_size = Size());
 
+/** @brief Opens a YAML or JSON file with cv::FileStorage for reading. Throws cv::Exception
+"<path>: not a readable YAML/JSON file: <parser's reason>" (StsParseError) when it cannot be
+parsed and "<path>: cannot open <what>" (StsError) when it cannot be opened; @p what names the
+file's role, e.g. "scene file". */
+CV_EXPORTS FileStorage openForReading(const std::string& path, const std::string& what);
+
+/** @brief Opens the temporary file of @p out with cv::FileStorage for writing (YAML or JSON by
+the final name's extension); throws cv::Exception "<final path>: cannot open for writing" when
+it cannot. */
+CV_EXPORTS FileStorage openForWriting(const AtomicFile& out);
+
+/** @brief Writes `key: [ {…}, {…}, … ]` with cv::FileStorage: one map per element of @p items,
+its fields written by @p write_one(item) between the braces. Writes nothing when @p items is
+empty (readers treat a missing key as an empty list). */
+template <typename Seq, typename WriteOne>
+void writeMapSeq(FileStorage& fs, const std::string& key, const Seq& items, WriteOne write_one) {
+    if (items.empty()) return;
+    fs << key << "[";
+    for (const auto& item : items) {
+        fs << "{";
+        write_one(item);
+        fs << "}";
+    }
+    fs << "]";
+}
+
 /** @brief @p p if absolute, else @p p relative to folder @p base, normalised. */
 CV_EXPORTS std::string resolvePath(const std::string& base, const std::string& p);
 /** @brief @p p relative to folder @p base if it lies below it, else @p p unchanged. */

@@ -100,6 +100,23 @@ struct CV_EXPORTS SceneObject {
     Material material;                           //!< override material when has_material
 };
 
+/** @brief A face of the room box seen from inside: the rectangle bl + u·right + v·up,
+u, v ∈ [0, 1] (world, metres), and its unit normal n = right × up / |right × up|, pointing into
+the room.
+
+This is the orientation of the face's texture: texel (col, row) of a W×H texture lies at
+u = (col + ½)/W, v = 1 − (row + ½)/H, so the image's top row is at the face's top (up) and
+its left column at bl. Every module uses this one table (Room::face()): the renderer's room
+geometry, the room textures, albedo and light estimation. */
+template <typename T>
+struct RoomFace_ {
+    Vec<T, 3> bl;     //!< bottom-left corner (u = v = 0)
+    Vec<T, 3> right;  //!< edge along u (image right)
+    Vec<T, 3> up;     //!< edge along v (image up)
+    Vec<T, 3> n;      //!< unit normal into the room
+};
+typedef RoomFace_<double> RoomFace;  //!< the face in double precision
+
 /** @brief The room box, axis-aligned in world coordinates. */
 struct CV_EXPORTS Room {
     Vec3d min = Vec3d(0, 0, 0);  //!< minimum corner (floor at min z)
@@ -108,7 +125,52 @@ struct CV_EXPORTS Room {
     std::map<std::string, std::string> textures;
     /** @brief The six face names in DESIGN order. */
     static const std::vector<std::string>& faceNames();
+    /** @brief Index of @p name in faceNames(), or -1 when it is not a face name. */
+    static int findFace(const std::string& name);
+    /** @brief Index of @p name in faceNames(); throws cv::Exception (StsBadArg) naming the valid
+    names when it is not a face name. */
+    static int faceIndex(const std::string& name);
+    /** @brief The world axis face @p i (faceNames() order) is perpendicular to: 2 (z) for floor
+    and ceiling, 0 (x) for left and right, 1 (y) for front and back. */
+    static int faceAxis(int i);
+    /** @brief Face @p i (faceNames() order) as seen from inside, computed in precision @p T
+    (float for the renderer's geometry, double elsewhere). Throws for i outside 0…5. */
+    template <typename T = double>
+    RoomFace_<T> face(int i) const;
 };
+
+template <typename T>
+RoomFace_<T> Room::face(int i) const {
+    typedef Vec<T, 3> V;
+    const V lo(min), hi(max);
+    const V ex(hi[0] - lo[0], 0, 0), ey(0, hi[1] - lo[1], 0), ez(0, 0, hi[2] - lo[2]);
+    RoomFace_<T> F;
+    switch (i) {
+        case 0:
+            F = {lo, ex, ey, V()};
+            break;  // floor
+        case 1:
+            F = {V(lo[0], hi[1], hi[2]), ex, -ey, V()};
+            break;  // ceiling
+        case 2:
+            F = {lo, ey, ez, V()};
+            break;  // left
+        case 3:
+            F = {V(hi[0], hi[1], lo[2]), -ey, ez, V()};
+            break;  // right
+        case 4:
+            F = {V(hi[0], lo[1], lo[2]), -ex, ez, V()};
+            break;  // front
+        case 5:
+            F = {V(lo[0], hi[1], lo[2]), ex, ez, V()};
+            break;  // back
+        default:
+            CV_Error(Error::StsOutOfRange,
+                     cv::format("Room::face: index %d, expected 0…5 (faceNames() order)", i));
+    }
+    F.n = normalize(F.right.cross(F.up));
+    return F;
+}
 
 /** @name Limits of the file readers
 Scene, camera-path and annotation files asking for more are refused with a message (a typo
