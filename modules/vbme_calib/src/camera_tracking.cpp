@@ -3,9 +3,9 @@
 #include "opencv2/vbme/calib/camera_tracking.hpp"
 
 #include "camera_refine.hpp"
+#include "opencv2/vbme/core/utility.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -234,8 +234,7 @@ namespace {
 CameraPath alignModelWithFrame0(const std::vector<ColmapModel>& models,
                                 const std::vector<std::string>& names, const Scene& frame0,
                                 const std::string& work_dir, const CameraTrackingOptions& opt,
-                                std::chrono::steady_clock::time_point t0,
-                                CameraTrackingReport* report) {
+                                const ScopedTimer& total, CameraTrackingReport* report) {
     const ColmapModel* chosen = nullptr;
     for (const auto& m : models)
         if (!chosen && m.imageByName(names.at(0))) chosen = &m;
@@ -246,7 +245,7 @@ CameraPath alignModelWithFrame0(const std::vector<ColmapModel>& models,
     CameraTrackingReport r;
     CameraPath path = alignToRoom(*chosen, names, frame0, opt, &r);
     r.models = (int)models.size();
-    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.seconds = total.seconds();
     if (report) *report = r;
     return path;
 }
@@ -256,25 +255,32 @@ CameraPath alignModelWithFrame0(const std::vector<ColmapModel>& models,
 CameraPath trackCameraFrames(const std::string& frames_dir, const std::vector<std::string>& names,
                              const Scene& frame0, const std::string& work_dir,
                              const CameraTrackingOptions& opt, CameraTrackingReport* report) {
-    const auto t0 = std::chrono::steady_clock::now();
+    const ScopedTimer total;
     const std::vector<ColmapModel> models =
         runColmapSfM(frames_dir, work_dir, frame0.camera.K, frame0.image_size, opt.colmap);
-    return alignModelWithFrame0(models, names, frame0, work_dir, opt, t0, report);
+    return alignModelWithFrame0(models, names, frame0, work_dir, opt, total, report);
 }
+
+namespace {
+// The video's frames must have the size the frame-0 annotation was made for.
+void checkFrameSize(const VideoReader& reader, Size annotated) {
+    if (reader.frameSize() != annotated)
+        CV_Error(Error::StsBadArg, format("the annotation is for %dx%d images but the video's "
+                                          "frames are %dx%d",
+                                          annotated.width, annotated.height,
+                                          reader.frameSize().width, reader.frameSize().height));
+}
+}  // namespace
 
 CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
                             const std::string& work_dir, const CameraTrackingOptions& opt,
                             CameraTrackingReport* report) {
     if (opt.stride < 1) CV_Error(Error::StsBadArg, "stride must be at least 1");
-    const auto t0 = std::chrono::steady_clock::now();
+    const ScopedTimer total;
     if (opt.method == CameraTrackingOptions::KEYFRAMES) {
         // Grey frames in memory (COLMAP's SIFT sees grey images too).
         VideoReader reader(video);
-        if (reader.frameSize() != frame0.image_size)
-            CV_Error(Error::StsBadArg, format("the annotation is for %dx%d images but the video's "
-                                              "frames are %dx%d",
-                                              frame0.image_size.width, frame0.image_size.height,
-                                              reader.frameSize().width, reader.frameSize().height));
+        checkFrameSize(reader, frame0.image_size);
         std::vector<Mat> gray;
         {
             Progress progress("decode frames", std::max(0, reader.frameCount()));
@@ -293,8 +299,7 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
             progress.finish();
         }
         if (gray.empty()) CV_Error(Error::StsError, "'" + video + "' holds no frame");
-        const double decode =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const double decode = total.seconds();
         CameraTrackingReport r;
         CameraPath path = trackCameraKeyframes(gray, frame0, work_dir, opt, &r);
         r.stage_seconds.insert(r.stage_seconds.begin(), {"decode", decode});
@@ -322,11 +327,7 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
     } else {
         fs::remove(marker, ec);
         VideoReader reader(video);
-        if (reader.frameSize() != frame0.image_size)
-            CV_Error(Error::StsBadArg, format("the annotation is for %dx%d images but the video's "
-                                              "frames are %dx%d",
-                                              frame0.image_size.width, frame0.image_size.height,
-                                              reader.frameSize().width, reader.frameSize().height));
+        checkFrameSize(reader, frame0.image_size);
         Progress progress("extract frames", std::max(0, reader.frameCount()));
         Mat f;
         for (int i = 0; reader.read(f); ++i) {
@@ -355,7 +356,7 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
             runColmapSfM(frames.string(), work_dir, frame0.camera.K, frame0.image_size, opt.colmap);
         std::ofstream(done.string()) << models.size() << "\n";
     }
-    return alignModelWithFrame0(models, names, frame0, work_dir, opt, t0, report);
+    return alignModelWithFrame0(models, names, frame0, work_dir, opt, total, report);
 }
 
 void drawRoomBox(InputOutputArray _image, const Camera& cam, const Room& room, const Scalar& colour,

@@ -3,14 +3,13 @@
 #include "opencv2/vbme/calib/colmap.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "opencv2/vbme/core/fileio.hpp"
+#include "opencv2/vbme/core/utility.hpp"
 
 namespace fs = std::filesystem;
 
@@ -58,18 +57,30 @@ namespace {
 
 // Lines of a COLMAP text file without comments and blank lines, with their line
 // numbers.
-std::vector<std::pair<int, std::string>> dataLines(const std::string& path) {
-    std::ifstream f(path);
-    if (!f) CV_Error(Error::StsError, "cannot read COLMAP file '" + path + "'");
-    std::vector<std::pair<int, std::string>> out;
-    std::string line;
-    int n = 0;
+// Next line of a COLMAP text file that is neither blank nor a comment; @p n counts the lines
+// read.
+bool nextDataLine(std::istream& f, std::string& line, int& n) {
     while (std::getline(f, line)) {
         ++n;
         const size_t p = line.find_first_not_of(" \t\r");
-        if (p == std::string::npos || line[p] == '#') continue;
-        out.emplace_back(n, line);
+        if (p != std::string::npos && line[p] != '#') return true;
     }
+    return false;
+}
+
+std::ifstream openColmapFile(const std::string& path) {
+    std::ifstream f(path);
+    if (!f) CV_Error(Error::StsError, "cannot read COLMAP file '" + path + "'");
+    return f;
+}
+
+std::vector<std::pair<int, std::string>> dataLines(const std::string& path) {
+    std::ifstream f = openColmapFile(path);
+    std::vector<std::pair<int, std::string>> out;
+    std::string line;
+    int n = 0;
+    while (nextDataLine(f, line, n))
+        out.emplace_back(n, line);
     return out;
 }
 
@@ -95,14 +106,10 @@ ColmapModel ColmapModel::readText(const std::string& dir) {
     const std::string img_path = (fs::path(dir) / "images.txt").string();
     // Two lines per image; the second (keypoints) may be empty, which dataLines()
     // would drop, so the raw file is read to keep the pairing right.
-    std::ifstream f(img_path);
-    if (!f) CV_Error(Error::StsError, "cannot read COLMAP file '" + img_path + "'");
+    std::ifstream f = openColmapFile(img_path);
     std::string line;
     int n = 0;
-    while (std::getline(f, line)) {
-        ++n;
-        const size_t p = line.find_first_not_of(" \t\r");
-        if (p == std::string::npos || line[p] == '#') continue;
+    while (nextDataLine(f, line, n)) {
         std::istringstream s(line);
         ColmapImage im;
         Vec4d q;
@@ -200,40 +207,41 @@ const ColmapImage* ColmapModel::imageByName(const std::string& name) const {
 
 namespace {
 
-std::string shellQuote(const std::string& s) {
-    std::string q = "'";
-    for (char c : s)
-        q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return q + "'";
-}
+using Args = std::vector<std::string>;
 
-// Runs one colmap step, appending its output to the log; throws in plain words
+// Runs one colmap step (no shell), appending its output to the log; throws in plain words
 // on failure.
-void runStep(const ColmapOptions& o, const std::string& step, const std::string& args,
+void runStep(const ColmapOptions& o, const std::string& step, const Args& args,
              const std::string& log) {
     {
         std::ofstream l(log, std::ios::app);
-        l << "\n==== colmap " << step << " " << args << "\n";
+        l << "\n==== colmap " << step;
+        for (const std::string& a : args)
+            l << " " << a;
+        l << "\n";
     }
-    // a hung step is stopped by coreutils' timeout (TERM, then KILL 5 s later): exit 124
-    const std::string limit =
-        o.timeout > 0 ? "timeout -k 5 " + std::to_string(o.timeout) + " " : std::string();
-    const std::string cmd = "QT_QPA_PLATFORM=offscreen " + limit + shellQuote(o.executable) + " " +
-                            step + " " + args + " >> " + shellQuote(log) + " 2>&1";
-    const int status = std::system(cmd.c_str());
-    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    if (code == 127)
+    Args argv = {o.executable, step};
+    argv.insert(argv.end(), args.begin(), args.end());
+    ProcessOptions po;
+    po.env = {"QT_QPA_PLATFORM=offscreen"};
+    po.log_file = log;
+    // a hung step is stopped: SIGTERM, then SIGKILL 5 s later
+    po.timeout = std::max(0, o.timeout);
+    po.kill_after = 5;
+    const ProcessResult r = runProcess(argv, po);
+    if (!r.error.empty())
         CV_Error(Error::StsError, "the colmap program ('" + o.executable +
                                       "') was not found: install Debian's colmap "
-                                      "package or give its path");
-    if (o.timeout > 0 && (code == 124 || code == 137))
+                                      "package or give its path (" +
+                                      r.error + ")");
+    if (r.timed_out)
         CV_Error(Error::StsError,
                  format("COLMAP %s did not finish within %d s (hung?) and was stopped; its output "
                         "is in %s",
                         step.c_str(), o.timeout, log.c_str()));
-    if (code != 0)
+    if (r.status != 0)
         CV_Error(Error::StsError, format("COLMAP %s failed (exit code %d); its output is in %s",
-                                         step.c_str(), code, log.c_str()));
+                                         step.c_str(), r.status, log.c_str()));
 }
 
 }  // namespace
@@ -241,12 +249,11 @@ void runStep(const ColmapOptions& o, const std::string& step, const std::string&
 std::vector<ColmapModel> runColmapSfM(const std::string& image_dir, const std::string& work_dir,
                                       const Matx33d& K, Size size, const ColmapOptions& o,
                                       std::vector<std::pair<std::string, double>>* step_seconds) {
-    auto timed = [&](const std::string& step, const std::string& args, const std::string& log) {
-        const auto t0 = std::chrono::steady_clock::now();
+    auto timed = [&](const std::string& step, const Args& args, const std::string& log) {
+        ScopedTimer timer([&](double s) {
+            if (step_seconds) step_seconds->emplace_back(step, s);
+        });
         runStep(o, step, args, log);
-        if (step_seconds)
-            step_seconds->emplace_back(
-                step, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     };
     std::error_code ec;
     if (!fs::is_directory(image_dir, ec))
@@ -264,34 +271,33 @@ std::vector<ColmapModel> runColmapSfM(const std::string& image_dir, const std::s
     // PINHOLE with COLMAP's +0.5 pixel-centre convention.
     const std::string params =
         format("%.10g,%.10g,%.10g,%.10g", K(0, 0), K(1, 1), K(0, 2) + 0.5, K(1, 2) + 0.5);
-    const std::string common = "--random_seed " + std::to_string(o.random_seed);
+    const Args common = {"--random_seed", std::to_string(o.random_seed)};
+    auto with = [&](Args extra) {
+        Args a = common;
+        a.insert(a.end(), extra.begin(), extra.end());
+        return a;
+    };
     timed("feature_extractor",
-          common + " --database_path " + shellQuote(db) + " --image_path " + shellQuote(image_dir) +
-              " --ImageReader.camera_model PINHOLE --ImageReader.single_camera 1 "
-              "--ImageReader.camera_params " +
-              params + " --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads " +
-              std::to_string(o.threads) + " --SiftExtraction.max_num_features " +
-              std::to_string(o.max_num_features),
+          with({"--database_path", db, "--image_path", image_dir, "--ImageReader.camera_model",
+                "PINHOLE", "--ImageReader.single_camera", "1", "--ImageReader.camera_params",
+                params, "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads",
+                std::to_string(o.threads), "--SiftExtraction.max_num_features",
+                std::to_string(o.max_num_features)}),
           log);
-    std::string match = common + " --database_path " + shellQuote(db) +
-                        " --SiftMatching.use_gpu 0" + " --SiftMatching.num_threads " +
-                        std::to_string(o.threads) + " --SequentialMatching.overlap " +
-                        std::to_string(o.overlap);
+    Args match = with({"--database_path", db, "--SiftMatching.use_gpu", "0",
+                       "--SiftMatching.num_threads", std::to_string(o.threads),
+                       "--SequentialMatching.overlap", std::to_string(o.overlap)});
     if (!o.vocab_tree.empty())
-        match +=
-            " --SequentialMatching.loop_detection 1 "
-            "--SequentialMatching.vocab_tree_path " +
-            shellQuote(o.vocab_tree);
+        match.insert(match.end(), {"--SequentialMatching.loop_detection", "1",
+                                   "--SequentialMatching.vocab_tree_path", o.vocab_tree});
     timed("sequential_matcher", match, log);
     timed("mapper",
-          common + " --database_path " + shellQuote(db) + " --image_path " + shellQuote(image_dir) +
-              " --output_path " + shellQuote(sparse.string()) + " --Mapper.num_threads " +
-              std::to_string(o.mapper_threads) +
-              " --Mapper.ba_refine_focal_length 0 "
-              "--Mapper.ba_refine_principal_point 0"
-              " --Mapper.ba_refine_extra_params 0 --Mapper.min_model_size " +
-              std::to_string(o.min_model_size) + " --Mapper.abs_pose_min_num_inliers " +
-              std::to_string(o.abs_pose_min_num_inliers),
+          with({"--database_path", db, "--image_path", image_dir, "--output_path", sparse.string(),
+                "--Mapper.num_threads", std::to_string(o.mapper_threads),
+                "--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_principal_point", "0",
+                "--Mapper.ba_refine_extra_params", "0", "--Mapper.min_model_size",
+                std::to_string(o.min_model_size), "--Mapper.abs_pose_min_num_inliers",
+                std::to_string(o.abs_pose_min_num_inliers)}),
           log);
     std::vector<ColmapModel> models;
     for (const auto& e : fs::directory_iterator(sparse, ec)) {
@@ -299,8 +305,8 @@ std::vector<ColmapModel> runColmapSfM(const std::string& image_dir, const std::s
         const fs::path out = text / e.path().filename();
         fs::create_directories(out, ec);
         runStep(o, "model_converter",
-                "--input_path " + shellQuote(e.path().string()) + " --output_path " +
-                    shellQuote(out.string()) + " --output_type TXT",
+                {"--input_path", e.path().string(), "--output_path", out.string(), "--output_type",
+                 "TXT"},
                 log);
         models.push_back(ColmapModel::readText(out.string()));
     }

@@ -2,7 +2,6 @@
 // Camera tracking by keyframes: corners tracked through the video choose the frames COLMAP
 // reconstructs; every other frame is registered by PnP against the model's points.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -17,6 +16,7 @@
 
 #include "camera_refine.hpp"
 #include "opencv2/vbme/calib/camera_tracking.hpp"
+#include "opencv2/vbme/core/utility.hpp"
 
 namespace fs = std::filesystem;
 
@@ -25,10 +25,9 @@ namespace vbme {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double since(Clock::time_point t0) {
-    return std::chrono::duration<double>(Clock::now() - t0).count();
+// Adds the seconds of a stage to the report when stopped.
+ScopedTimer stageTimer(CameraTrackingReport& rep, const char* stage) {
+    return ScopedTimer([&rep, stage](double s) { rep.stage_seconds.emplace_back(stage, s); });
 }
 
 const Size kWin(21, 21);
@@ -207,7 +206,7 @@ std::string frameName(int i) {
 CameraPath trackCameraKeyframes(const std::vector<Mat>& gray, const Scene& frame0,
                                 const std::string& work_dir, const CameraTrackingOptions& opt,
                                 CameraTrackingReport* report) {
-    const auto t_start = Clock::now();
+    ScopedTimer total;
     const int n = (int)gray.size();
     if (n == 0) CV_Error(Error::StsBadArg, "trackCameraKeyframes: no frames");
     for (int i = 0; i < n; ++i)
@@ -221,9 +220,9 @@ CameraPath trackCameraKeyframes(const std::vector<Mat>& gray, const Scene& frame
     if (opt.stride > 1) ko.stride = opt.stride;
 
     // 1. Keyframes.
-    auto t0 = Clock::now();
+    ScopedTimer t_keys = stageTimer(rep, "keyframes");
     std::vector<int> keys = selectKeyframes(gray, ko);
-    rep.stage_seconds.emplace_back("keyframes", since(t0));
+    t_keys.stop();
 
     // 2. COLMAP on the keyframes (resumable: the same keyframes with a finished run are reused).
     const fs::path work(work_dir), kdir = work / "keyframes";
@@ -315,15 +314,15 @@ CameraPath trackCameraKeyframes(const std::vector<Mat>& gray, const Scene& frame
     rep.keyframes = (int)keys.size();
 
     // 3. Alignment to the room (and refinement) of the keyframes.
-    t0 = Clock::now();
+    ScopedTimer t_align = stageTimer(rep, "align");
     std::map<long long, Vec3d> world;
     CameraPath path = detail::alignToRoomWithPoints(*model, names, frame0, opt, &rep, &world);
     rep.models = (int)models.size();
-    rep.stage_seconds.emplace_back("align", since(t0));
+    t_align.stop();
 
     // 4. PnP for every frame COLMAP did not register, from the nearest registered frame on each
     // side.
-    t0 = Clock::now();
+    ScopedTimer t_pnp = stageTimer(rep, "pnp");
     std::vector<int> anchors;
     for (int i = 0; i < n; ++i)
         if (path.frames[i].source == CameraPath::SFM) anchors.push_back(i);
@@ -376,12 +375,12 @@ CameraPath trackCameraKeyframes(const std::vector<Mat>& gray, const Scene& frame
     }
     // Frames PnP could not hold: interpolated between the nearest registered ones (SfM or PnP).
     const int interpolated = detail::interpolateMissing(path, have);
-    rep.stage_seconds.emplace_back("pnp", since(t0));
+    t_pnp.stop();
     rep.pnp = pnp;
     rep.interpolated = interpolated;
     rep.pnp_rms = inliers > 0 ? std::sqrt(se / inliers) : 0;
     rep.pnp_inliers = pnp ? inliers / pnp : 0;
-    rep.seconds = since(t_start);
+    rep.seconds = total.stop();
     if (report) *report = rep;
     return path;
 }

@@ -575,24 +575,11 @@ public:
             detail::detectSegmentsMerged(detail::toGray8(image), p_, segments);
             return;
         }
-        Mat img = image.getMat();
-        if (img.empty()) CV_Error(Error::StsBadArg, "detect: the image is empty");
-        Mat gray;
-        if (img.channels() == 3)
-            cvtColor(img, gray, COLOR_BGR2GRAY);
-        else if (img.channels() == 4)
-            cvtColor(img, gray, COLOR_BGRA2GRAY);
-        else
-            gray = img;
-        if (gray.depth() != CV_8U) {
-            Mat g8;
-            gray.convertTo(g8, CV_8U, gray.depth() == CV_16U ? 1.0 / 257 : 255.0);
-            gray = g8;
-        }
+        const Mat gray = detail::toGray8(image);
         Ptr<LineSegmentDetector> lsd = createLineSegmentDetector(LSD_REFINE_STD);
         std::vector<Vec4f> raw;
         lsd->detect(gray, raw);
-        const double diag = std::hypot(img.cols, img.rows);
+        const double diag = std::hypot(gray.cols, gray.rows);
         const double minlen = p_.min_segment_length > 0 ? p_.min_segment_length : 0.03 * diag;
         segments.clear();
         for (const auto& s : raw)

@@ -20,6 +20,8 @@ namespace vbme {
 
 // ---------------------------------------------------------------- ScopedTimer
 
+ScopedTimer::ScopedTimer() : start_(std::chrono::steady_clock::now()) {}
+
 ScopedTimer::ScopedTimer(double& accumulator)
     : start_(std::chrono::steady_clock::now()),
       sink_([&accumulator](double s) { accumulator += s; }) {}

@@ -33,6 +33,8 @@ double decode_s = 0;
 */
 class CV_EXPORTS ScopedTimer {
 public:
+    /** @brief Measures only: read the figure with seconds() or stop(). */
+    ScopedTimer();
     /** @brief Adds the elapsed seconds to @p accumulator. */
     explicit ScopedTimer(double& accumulator);
     /** @brief Calls @p sink with the elapsed seconds (an empty function: nothing is called). */
