@@ -74,3 +74,18 @@ TEST(CoreCamera, OrthonormalizeGivesRotation) {
     EXPECT_LT(norm(Mat(Ro.t() * Ro - Matx33d::eye())), 1e-12);
     EXPECT_LT(norm(Mat(Ro - R)), 5e-3);
 }
+
+// The focal length of a horizontal field of view: a point at half the angle off the axis
+// projects to the outer edge of the last pixel column (x = w − ½ with centres at integers).
+TEST(CoreCamera, FocalFromFovPutsTheHalfAngleAtTheImageEdge) {
+    for (double fov : {30.0, 60.0, 90.0, 120.0})
+        for (Size sz : {Size(640, 480), Size(321, 200)}) {
+            const Camera c = Camera::fromFocal(Camera::focalFromFov(sz.width, fov), sz);
+            const double h = fov * CV_PI / 360.0;
+            EXPECT_NEAR(c.project(Vec3d(std::tan(h), 0, 1)).x, sz.width - 0.5, 1e-9);
+            EXPECT_NEAR(c.project(Vec3d(-std::tan(h), 0, 1)).x, -0.5, 1e-9);
+        }
+    EXPECT_THROW(Camera::focalFromFov(0, 60), cv::Exception);
+    EXPECT_THROW(Camera::focalFromFov(640, 180), cv::Exception);
+    EXPECT_THROW(Camera::focalFromFov(640, 0), cv::Exception);
+}

@@ -309,3 +309,98 @@ TEST(CoreScene, WarnsAboutALightFacingOutOfTheRoom) {
     s.has_room = false;  // without a room there is no inside to face
     EXPECT_TRUE(s.warnings().empty());
 }
+
+// The one room-face table: each face lies on its plane of the box, spans it exactly, faces into
+// the room, and shows the walls upright (image up = world +z) as seen from inside.
+TEST(CoreRoomFaces, FacesSpanTheBoxFromInside) {
+    Room room;
+    room.min = Vec3d(-2, -1, 0);
+    room.max = Vec3d(2.5, 4, 2.6);
+    const Vec3d centre = 0.5 * (room.min + room.max);
+    const Vec3d ext = room.max - room.min;
+    for (int i = 0; i < 6; ++i) {
+        const std::string& name = Room::faceNames()[i];
+        EXPECT_EQ(Room::faceIndex(name), i);
+        EXPECT_EQ(Room::findFace(name), i);
+        const RoomFace f = room.face(i);
+        const int ax = Room::faceAxis(i);
+        const double plane = (i % 2 == 0) ? room.min[ax] : room.max[ax];
+        // all four corners on the face's plane and inside the box's extent
+        for (double u : {0.0, 1.0})
+            for (double v : {0.0, 1.0}) {
+                const Vec3d p = f.bl + u * f.right + v * f.up;
+                EXPECT_DOUBLE_EQ(p[ax], plane) << name;
+                for (int a = 0; a < 3; ++a) {
+                    EXPECT_GE(p[a], room.min[a] - 1e-12) << name;
+                    EXPECT_LE(p[a], room.max[a] + 1e-12) << name;
+                }
+            }
+        // the rectangle covers the whole face: area = product of the other two extents
+        const double area = norm(f.right.cross(f.up));
+        EXPECT_NEAR(area, ext[(ax + 1) % 3] * ext[(ax + 2) % 3], 1e-12) << name;
+        // the normal is unit, along the axis, and points to the box's centre
+        EXPECT_NEAR(norm(f.n), 1.0, 1e-12);
+        EXPECT_NEAR(std::abs(f.n[ax]), 1.0, 1e-12) << name;
+        EXPECT_GT(f.n.dot(centre - f.bl), 0) << name;
+        if (ax != 2) {  // walls: image up is world up
+            EXPECT_GT(f.up[2], 0) << name;
+        }
+        // float precision: the same table
+        const RoomFace_<float> ff = room.face<float>(i);
+        EXPECT_LT(
+            norm(Vec3d(ff.bl) - f.bl) + norm(Vec3d(ff.right) - f.right) + norm(Vec3d(ff.up) - f.up),
+            1e-5);
+    }
+    EXPECT_EQ(Room::findFace("wall"), -1);
+    EXPECT_THROW(Room::faceIndex("wall"), cv::Exception);
+    EXPECT_THROW(room.face(6), cv::Exception);
+    EXPECT_THROW(Room::faceAxis(-1), cv::Exception);
+}
+
+// The shared FileStorage opener and writer: messages name the file and its role; a sequence of
+// maps reads back element by element, and an empty one writes no key.
+TEST(CoreFiles, OpenForReadingAndWritingAndMapSequences) {
+    vbme_test::ScratchDir dir;
+    try {
+        openForReading(dir / "missing.yml", "camera-path file");
+        FAIL() << "a missing file was opened";
+    } catch (const cv::Exception& e) {
+        EXPECT_NE(e.err.find("missing.yml: cannot open camera-path file"), std::string::npos)
+            << e.err;
+    }
+    { std::ofstream(dir / "bad.yml") << "%YAML:1.0\n---\nk: [1, 2\n"; }
+    try {
+        openForReading(dir / "bad.yml", "scene file");
+        FAIL() << "a broken file was opened";
+    } catch (const cv::Exception& e) {
+        EXPECT_NE(e.err.find("bad.yml: not a readable YAML/JSON file"), std::string::npos) << e.err;
+    }
+    struct Item {
+        int a;
+        std::string b;
+    };
+    const std::vector<Item> items = {{1, "x"}, {2, "y y"}, {3, ""}};
+    const std::vector<Item> none;
+    for (const char* ext : {".yml", ".json"}) {
+        const std::string path = dir / (std::string("seq") + ext);
+        AtomicFile out(path);
+        {
+            FileStorage fs = openForWriting(out);
+            writeMapSeq(fs, "items", items,
+                        [&](const Item& it) { fs << "a" << it.a << "b" << it.b; });
+            writeMapSeq(fs, "none", none, [&](const Item&) { FAIL(); });
+            fs << "after" << 7;
+        }
+        out.commit();
+        FileStorage in = openForReading(path, "test file");
+        const FileNode seq = in["items"];
+        ASSERT_TRUE(seq.isSeq()) << ext;
+        ASSERT_EQ(seq.size(), items.size());
+        for (size_t i = 0; i < items.size(); ++i) {
+            EXPECT_EQ((int)seq[(int)i]["a"], items[i].a);
+            EXPECT_EQ((std::string)seq[(int)i]["b"], items[i].b);
+        }
+        EXPECT_TRUE(in["none"].empty());
+        EXPECT_EQ((int)in["after"], 7);
+    }
+}

@@ -62,6 +62,14 @@ TEST(ScopedTimer, AddsTheScopesWallTimeOnce) {
         EXPECT_EQ(t.seconds(), s);
     }
     EXPECT_EQ(calls, 1);  // the destructor did not report again
+
+    // measuring only: the figure is read with stop()
+    const auto t1 = std::chrono::steady_clock::now();
+    ScopedTimer m;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    const double ms = m.stop();
+    EXPECT_GE(ms, 0.010);
+    EXPECT_LE(ms, wallSince(t1));
 }
 
 // ---------------------------------------------------------------- runProcess / shellQuote
