@@ -198,7 +198,7 @@ TEST(RenderRelighting, GlassInvertsBackground) {
     rectangle(bg, Rect(cvRound(c.x) - 14, cvRound(c.y) - 4, 8, 8), Scalar(0, 0, 1), FILLED);
     Mat eq(64, 128, CV_32FC3, Scalar::all(0.2));
     EnvironmentMap env(eq);
-    const double focal = focalFromFov(size.width, 60);
+    const double focal = Camera::focalFromFov(size.width, 60);
     SphereRefraction refr;
     refr.background = bg;
     refr.center = c;

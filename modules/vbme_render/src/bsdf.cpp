@@ -121,11 +121,7 @@ public:
 
 private:
     // The texture's colour replaces kd, limited to 1 − ks per channel (energy).
-    Vec3f clampKd(const Vec3f& d) const {
-        return Vec3f(std::min(std::max(d[0], 0.f), 1.f - ks_[0]),
-                     std::min(std::max(d[1], 0.f), 1.f - ks_[1]),
-                     std::min(std::max(d[2], 0.f), 1.f - ks_[2]));
-    }
+    Vec3f clampKd(const Vec3f& d) const { return clampDiffuse(d, ks_); }
     float diffuseProb(const Vec3f& kd) const {
         const float kdm = (kd[0] + kd[1] + kd[2]) / 3.f;
         const float t = kdm + ks_mean_;

@@ -121,11 +121,7 @@ public:
     Vec3f defaultDiffuse() const override { return kd_; }
 
 private:
-    Vec3f clampKd(const Vec3f& d) const {
-        return Vec3f(std::min(std::max(d[0], 0.f), 1.f - ks_[0]),
-                     std::min(std::max(d[1], 0.f), 1.f - ks_[1]),
-                     std::min(std::max(d[2], 0.f), 1.f - ks_[2]));
-    }
+    Vec3f clampKd(const Vec3f& d) const { return clampDiffuse(d, ks_); }
     // Probability of sampling the specular lobe: its weight ks·F(cos θo) against mean(kd),
     // kept within [0.1, 0.9] when both lobes exist.
     float specProb(const Vec3f& wo, const Vec3f& kd) const {

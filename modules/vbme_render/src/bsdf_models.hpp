@@ -10,11 +10,21 @@
 #ifndef VBME_RENDER_BSDF_MODELS_HPP
 #define VBME_RENDER_BSDF_MODELS_HPP
 
+#include <algorithm>
+
 #include "opencv2/vbme/render/bsdf.hpp"
 
 namespace cv {
 namespace vbme {
 namespace bsdf_detail {
+
+/** @brief A texture's diffuse colour limited to [0, 1 − ks] per channel, so that a diffuse plus
+specular model does not reflect more than it receives (Phong, Cook-Torrance). */
+inline Vec3f clampDiffuse(const Vec3f& d, const Vec3f& ks) {
+    return Vec3f(std::min(std::max(d[0], 0.f), 1.f - ks[0]),
+                 std::min(std::max(d[1], 0.f), 1.f - ks[1]),
+                 std::min(std::max(d[2], 0.f), 1.f - ks[2]));
+}
 
 /** @brief Lambertian: f = albedo/π. */
 Ptr<Bsdf> createLambertian(const Vec3f& albedo);

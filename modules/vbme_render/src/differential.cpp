@@ -10,6 +10,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "opencv2/vbme/core/utility.hpp"
 #include "opencv2/vbme/render/camera.hpp"
 #include "opencv2/vbme/render/film.hpp"
 #include "render_scene_impl.hpp"
@@ -37,10 +38,7 @@ uint64 frameSeed(uint64 seed, int frame, FrameSeeding mode) {
     if (mode != SEEDS_PER_FRAME)
         CV_Error(Error::StsBadArg, "frameSeed: mode must be SEEDS_FIXED or SEEDS_PER_FRAME");
     // SplitMix64 finaliser of the seed combined with the frame index.
-    uint64 z = seed ^ (0x9E3779B97F4A7C15ull * (uint64(frame) + 1));
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
+    return mix64(seed ^ (0x9E3779B97F4A7C15ull * (uint64(frame) + 1)));
 }
 
 DifferentialRenderer::~DifferentialRenderer() = default;
@@ -92,10 +90,7 @@ using render_detail::RenderSceneImpl;
 
 /** Seed of the second render when the two must be independent. */
 uint64 independentSeed(uint64 seed) {
-    uint64 z = seed + 0x9E3779B97F4A7C15ull;
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
+    return mix64(seed + 0x9E3779B97F4A7C15ull);
 }
 
 class DifferentialRendererImpl : public DifferentialRenderer {

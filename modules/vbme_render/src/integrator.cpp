@@ -9,10 +9,10 @@
 
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <cmath>
 #include <limits>
 
+#include "opencv2/vbme/core/utility.hpp"
 #include "opencv2/vbme/render/camera.hpp"
 #include "opencv2/vbme/render/sampler.hpp"
 #include "render_scene_impl.hpp"
@@ -398,7 +398,7 @@ RenderStats RendererImpl::renderDifferential(const RenderScene& scene, const Cam
 RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& camera,
                                      RenderImages& out, RenderImages* without,
                                      Progress* progress) const {
-    const auto t0 = std::chrono::steady_clock::now();
+    ScopedTimer timer;
     const RenderSceneImpl& scene = impl(scene_in);
     const PinholeCamera cam(camera);
     const Size sz = camera.image_size;
@@ -653,12 +653,12 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
         tbb::task_arena arena(p_.threads);
         arena.execute(body);
     } else {
-        tbb::task_arena arena;
-        arena.execute(body);
+        // In the caller's arena, so that a limit set around the call (runLimited) applies.
+        body();
     }
 
     RenderStats st;
-    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    st.seconds = timer.stop();
     st.paths = paths.load();
     st.pixels_untouched = untouched.load();
     st.rays = rays.load();

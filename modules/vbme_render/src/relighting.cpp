@@ -8,6 +8,9 @@
 
 #include <opencv2/core/utility.hpp>
 
+#include "opencv2/vbme/core/utility.hpp"
+
+#include "opencv2/vbme/render/camera.hpp"
 #include "opencv2/vbme/render/sampler.hpp"
 #include "sampling.hpp"
 
@@ -55,19 +58,6 @@ bool refractDir(const Vec3f& v, const Vec3f& n, float eta, Vec3f& t) {
 
 inline Vec3f reflectDir(const Vec3f& wo, const Vec3f& n) {
     return n * (2.f * n.dot(wo)) - wo;
-}
-
-// Bilinear look-up of a CV_32FC3 image at continuous pixel (x, y) (centres at integers).
-Vec3f bilinear(const Mat& img, float x, float y) {
-    x = std::min(std::max(x, 0.f), (float)img.cols - 1.f);
-    y = std::min(std::max(y, 0.f), (float)img.rows - 1.f);
-    const int x0 = std::min((int)x, img.cols - 2 < 0 ? 0 : img.cols - 2);
-    const int y0 = std::min((int)y, img.rows - 2 < 0 ? 0 : img.rows - 2);
-    const int x1 = std::min(x0 + 1, img.cols - 1), y1 = std::min(y0 + 1, img.rows - 1);
-    const float fx = x - x0, fy = y - y0;
-    const Vec3f* r0 = img.ptr<Vec3f>(y0);
-    const Vec3f* r1 = img.ptr<Vec3f>(y1);
-    return (r0[x0] * (1 - fx) + r0[x1] * fx) * (1 - fy) + (r1[x0] * (1 - fx) + r1[x1] * fx) * fy;
 }
 
 Vec3f rgbOf(const Vec3d& v) {
@@ -519,7 +509,7 @@ Vec3f ImageShader::refracted(const ShadingPoint& p, const Vec3f& wi_in) const {
         const Vec3f X = P2 + e * ((zp - P2[2]) / e[2]);
         const float x = ppx + f * X[0] / X[2], y = ppy + f * X[1] / X[2];
         if (x >= 0 && y >= 0 && x <= bg.cols - 1 && y <= bg.rows - 1)
-            return bgr2rgb(bilinear(bg, x, y)) * weight;
+            return bgr2rgb(bilinear<Vec3f>(bg, x, y)) * weight;
     }
     return environment(e) * weight;
 }
@@ -587,17 +577,6 @@ Vec3f sphereNormalAt(float x, float y, Point2f center, float radius) {
     return Vec3f(dx, dy, -std::sqrt(std::max(0.f, 1.f - dx * dx - dy * dy)));
 }
 
-Vec3f cameraRay(float x, float y, Size size, double focal) {
-    const float ppx = 0.5f * (size.width - 1), ppy = 0.5f * (size.height - 1);
-    return normalized(Vec3f((x - ppx) / (float)focal, (y - ppy) / (float)focal, 1.f));
-}
-
-double focalFromFov(int width, double hfov_deg) {
-    CV_Assert(width > 0 && hfov_deg > 0 && hfov_deg < 180 &&
-              "focalFromFov: expected a positive width and a field of view in (0, 180) degrees");
-    return 0.5 * width / std::tan(0.5 * hfov_deg * CV_PI / 180.0);
-}
-
 float diskCoverage(float x, float y, Point2f center, float radius) {
     const float dx = x - center.x, dy = y - center.y;
     return std::min(1.f, std::max(0.f, radius - std::sqrt(dx * dx + dy * dy) + 0.5f));
@@ -617,7 +596,7 @@ void renderSphere(const Mat& background, Point2f center, float radius, double fo
                           Point(cvCeil(center.x + radius + 2), cvCeil(center.y + radius + 2))) &
                      Rect(Point(0, 0), background.size());
     if (box.empty()) return;
-    const Size size = background.size();
+    const PinholeCamera camera(Camera::fromFocal(focal, background.size()));
     parallel_for_(Range(box.y, box.y + box.height), [&](const Range& rows) {
         for (int y = rows.start; y < rows.end; y++) {
             Vec3f* o = out.ptr<Vec3f>(y);
@@ -627,7 +606,9 @@ void renderSphere(const Mat& background, Point2f center, float radius, double fo
                 if (c <= 0.f) continue;
                 ShadingPoint sp;
                 sp.n = sphereNormalAt((float)x, (float)y, center, radius);
-                sp.wo = -cameraRay((float)x, (float)y, size, focal);
+                Vec3f origin, ray;
+                camera.generateRay(Point2f((float)x, (float)y), origin, ray);
+                sp.wo = -ray;
                 // Orthographic normals seen through a perspective camera: near the rim of an
                 // off-centre disk the normal can face away from the view ray. Tilt the view
                 // direction to graze the surface instead of leaving the pixel unlit.

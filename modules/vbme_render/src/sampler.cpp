@@ -2,23 +2,12 @@
 // Owen-scrambled Sobol sampler after Burley 2020, "Practical Hash-based Owen Scrambling".
 #include "opencv2/vbme/render/sampler.hpp"
 
+#include "opencv2/vbme/core/utility.hpp"
+
 namespace cv {
 namespace vbme {
 
 namespace {
-
-// 64-bit finaliser (splitmix64 / Stafford variant 13): a good avalanche mixer.
-inline uint64 mix64(uint64 x) {
-    x ^= x >> 30;
-    x *= 0xbf58476d1ce4e5b9ULL;
-    x ^= x >> 27;
-    x *= 0x94d049bb133111ebULL;
-    x ^= x >> 31;
-    return x;
-}
-inline uint64 hashCombine(uint64 a, uint64 b) {
-    return mix64(a ^ (mix64(b) + 0x9e3779b97f4a7c15ULL));
-}
 
 inline uint32_t reverseBits(uint32_t x) {
     x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);

@@ -64,11 +64,12 @@ public:
     static int parseLightSelection(const std::string& name);
     /** @brief Render options. */
     struct CV_EXPORTS Params {
-        Params();                        //!< Defaults as below.
-        int spp = 32;                    //!< samples per pixel
-        int max_depth = 8;               //!< maximum number of bounces (≥ 1)
-        uint64 seed = 0;                 //!< sampler seed
-        int threads = 0;                 //!< worker threads (0: all cores)
+        Params();           //!< Defaults as below.
+        int spp = 32;       //!< samples per pixel
+        int max_depth = 8;  //!< maximum number of bounces (≥ 1)
+        uint64 seed = 0;    //!< sampler seed
+        int threads = 0;    //!< worker threads (0: those of the calling arena: all cores, or the
+                            //!< limit of cv::vbme::runLimited())
         int integrator = PATH;           //!< Integrator
         bool with_objects = true;        //!< false: render without the `objects:` meshes
         FilterType filter = FILTER_BOX;  //!< pixel reconstruction filter

@@ -227,12 +227,13 @@ private:
 pixels on or beyond the rim (so anti-aliased edge pixels get the rim's normal). */
 CV_EXPORTS Vec3f sphereNormalAt(float x, float y, Point2f center, float radius);
 
-/** @brief Unit direction from the camera through pixel (x, y) (principal point at the
-image centre ((w−1)/2, (h−1)/2), focal @p focal pixels). */
-CV_EXPORTS Vec3f cameraRay(float x, float y, Size size, double focal);
-
-/** @brief Focal length (pixels) of a horizontal field of view @p hfov_deg. */
-CV_EXPORTS double focalFromFov(int width, double hfov_deg);
+/** @brief Focal length (pixels) of a horizontal field of view @p hfov_deg.
+@deprecated Use cv::vbme::Camera::focalFromFov(), the one camera model; this alias goes in the
+next release. */
+[[deprecated("use cv::vbme::Camera::focalFromFov")]] inline double focalFromFov(int width,
+                                                                                double hfov_deg) {
+    return Camera::focalFromFov(width, hfov_deg);
+}
 
 /** @brief Fraction of pixel (x, y) covered by the disk, from the exact signed distance of
 its centre to the edge: `clamp(r − dist + 0.5, 0, 1)`. */
@@ -240,7 +241,8 @@ CV_EXPORTS float diskCoverage(float x, float y, Point2f center, float radius);
 
 /** @brief Re-renders a sphere seen as a disk (@p center, @p radius) and composites it.
 
-Every pixel with coverage > 0 is shaded with sphereNormalAt() and cameraRay() (the view
+Every pixel with coverage > 0 is shaded with sphereNormalAt() and the view ray of the camera
+Camera::fromFocal(focal, background size) (PinholeCamera::generateRay(); the view
 direction tilted to graze the surface where the orthographic normal faces away from the
 perspective ray, near the rim of an off-centre disk) and blended
 `c·shaded + (1 − c)·background` in linear space (c from diskCoverage()). Runs in parallel over
