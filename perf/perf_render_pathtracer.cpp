@@ -3,8 +3,8 @@
 // open box room (floor, back and left walls) with the Stanford bunny, diffuse materials, one
 // distant light with a 5° half-angle and a constant ambient environment.
 //
-// Reads $VBME_DATA/meshes/stanford-bunny.obj (VBME_DATA defaults to ../shared/data beside the source tree).
-// The peer has no timer of its own: it is timed at N and 2N samples per pixel and the
+// Reads $VBME_DATA/meshes/stanford-bunny.obj (VBME_DATA defaults to ../shared/data beside the
+// source tree). The peer has no timer of its own: it is timed at N and 2N samples per pixel and the
 // difference is taken, so that loading and BVH building cancel. It writes 8-bit linear values
 // clamped to [0,1]; images are compared in those units.
 //
@@ -130,22 +130,51 @@ struct Bench {
     }
     // Runs the peer; returns wall seconds (negative on failure).
     double runPeer(Size sz, int spp, int depth, int threads, const std::string& out) const {
-        char cmd[1024];
+        auto num = [](double v) { return cv::format("%g", v); };
         // Embree's --distantlight takes the direction the light travels and its radiance;
         // its half-angle is in degrees.
-        std::snprintf(cmd, sizeof cmd,
-                      "%s -i %s --vp %g %g %g --vi %g %g %g --vu 0 0 1 --fov %g --size %d %d "
-                      "--distantlight %g %g %g %g %g %g %g --ambientlight %g %g %g --spp %d "
-                      "--max-path-length %d --threads %d -o %s > /dev/null 2>&1",
-                      peerExe().c_str(), obj.c_str(), kEye[0], kEye[1], kEye[2], kTarget[0],
-                      kTarget[1], kTarget[2], kFovY, sz.width, sz.height, -kToSun[0], -kToSun[1],
-                      -kToSun[2], kSunRadiance, kSunRadiance, kSunRadiance, kSunHalfAngle, kAmbient,
-                      kAmbient, kAmbient, spp, depth, threads, out.c_str());
-        const auto t0 = std::chrono::steady_clock::now();
-        const int rc = std::system(cmd);
-        const double s =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        return rc == 0 ? s : -1.0;
+        const std::vector<std::string> argv = {peerExe(),
+                                               "-i",
+                                               obj,
+                                               "--vp",
+                                               num(kEye[0]),
+                                               num(kEye[1]),
+                                               num(kEye[2]),
+                                               "--vi",
+                                               num(kTarget[0]),
+                                               num(kTarget[1]),
+                                               num(kTarget[2]),
+                                               "--vu",
+                                               "0",
+                                               "0",
+                                               "1",
+                                               "--fov",
+                                               num(kFovY),
+                                               "--size",
+                                               std::to_string(sz.width),
+                                               std::to_string(sz.height),
+                                               "--distantlight",
+                                               num(-kToSun[0]),
+                                               num(-kToSun[1]),
+                                               num(-kToSun[2]),
+                                               num(kSunRadiance),
+                                               num(kSunRadiance),
+                                               num(kSunRadiance),
+                                               num(kSunHalfAngle),
+                                               "--ambientlight",
+                                               num(kAmbient),
+                                               num(kAmbient),
+                                               num(kAmbient),
+                                               "--spp",
+                                               std::to_string(spp),
+                                               "--max-path-length",
+                                               std::to_string(depth),
+                                               "--threads",
+                                               std::to_string(threads),
+                                               "-o",
+                                               out};
+        const ProcessResult r = runProcess(argv);
+        return r.ok() ? r.seconds : -1.0;
     }
 };
 

@@ -303,20 +303,47 @@ struct PeerScene {
     // Runs Embree's pathtracer; wall seconds in *wall, children's CPU seconds returned in *cpu.
     bool runPeer(cv::Size sz, int spp, int depth, int threads, const std::string& out, double* wall,
                  double* cpu) const {
-        char cmd[1024];
-        std::snprintf(cmd, sizeof cmd,
-                      "%s -i %s --vp %g %g %g --vi %g %g %g --vu 0 0 1 --fov %g --size %d %d "
-                      "--pointlight %g %g %g %g %g %g --spp %d --max-path-length %d --threads %d "
-                      "-o %s > /dev/null 2>&1",
-                      exe().c_str(), obj.c_str(), eye[0], eye[1], eye[2], target[0], target[1],
-                      target[2], fov_y, sz.width, sz.height, light[0], light[1], light[2],
-                      intensity, intensity, intensity, spp, depth, threads, out.c_str());
+        auto num = [](double v) { return cv::format("%g", v); };
+        const std::vector<std::string> argv = {exe(),
+                                               "-i",
+                                               obj,
+                                               "--vp",
+                                               num(eye[0]),
+                                               num(eye[1]),
+                                               num(eye[2]),
+                                               "--vi",
+                                               num(target[0]),
+                                               num(target[1]),
+                                               num(target[2]),
+                                               "--vu",
+                                               "0",
+                                               "0",
+                                               "1",
+                                               "--fov",
+                                               num(fov_y),
+                                               "--size",
+                                               std::to_string(sz.width),
+                                               std::to_string(sz.height),
+                                               "--pointlight",
+                                               num(light[0]),
+                                               num(light[1]),
+                                               num(light[2]),
+                                               num(intensity),
+                                               num(intensity),
+                                               num(intensity),
+                                               "--spp",
+                                               std::to_string(spp),
+                                               "--max-path-length",
+                                               std::to_string(depth),
+                                               "--threads",
+                                               std::to_string(threads),
+                                               "-o",
+                                               out};
         const double c0 = cpuSeconds(RUSAGE_CHILDREN);
-        const auto t0 = std::chrono::steady_clock::now();
-        const int rc = std::system(cmd);
-        *wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const cv::vbme::ProcessResult r = cv::vbme::runProcess(argv);
+        *wall = r.seconds;
         *cpu = cpuSeconds(RUSAGE_CHILDREN) - c0;
-        return rc == 0;
+        return r.ok();
     }
 };
 

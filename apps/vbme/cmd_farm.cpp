@@ -2,7 +2,6 @@
 // vbme farm slurm: batch scripts that run `vbme insert` on a Slurm cluster: one preparation
 // job (--prepare-only), an array job whose tasks render --frames A:B on the shared work folder,
 // and an assembly job that writes the video once the array is done (doc/cluster.md).
-#include <sys/wait.h>
 
 #include <algorithm>
 #include <cmath>
@@ -27,11 +26,9 @@ struct FarmOptions {
     CommonOptions common;
 };
 
+// The job scripts are shell scripts: paths in them are quoted for the shell.
 std::string quote(const std::string& s) {
-    std::string q = "'";
-    for (char c : s)
-        q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return q + "'";
+    return cv::vbme::shellQuote(s);
 }
 
 std::string absolute(const std::string& p) {
@@ -165,14 +162,14 @@ void runFarmSlurm(FarmOptions& o) {
     std::printf("written: %s/{prepare.sbatch,render.sbatch,assemble.sbatch,submit.sh}\n",
                 dir.c_str());
     if (o.submit) {
-        std::fflush(stdout);
-        const int status = std::system(("bash " + quote(submit)).c_str());
-        const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-        if (code != 0)
+        const cv::vbme::ProcessResult r = cv::vbme::runProcess({"bash", submit});
+        std::fputs(r.out.c_str(), stdout);
+        std::fputs(r.err.c_str(), stderr);
+        if (!r.ok())
             CV_Error(cv::Error::StsError,
                      cv::format("submitting with sbatch failed (exit %d): is Slurm's sbatch on "
                                 "PATH and the controller up? The scripts are in %s",
-                                code, dir.c_str()));
+                                r.status, dir.c_str()));
     } else {
         std::printf("submit with: bash %s\n", quote(submit).c_str());
     }
