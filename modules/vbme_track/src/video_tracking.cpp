@@ -3,7 +3,6 @@
 
 #include <unistd.h>
 
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -109,7 +108,7 @@ TrackVideoSummary trackVideo(const std::string& video, InputArray _first_mask,
     csv << "frame,cx,cy,r,confidence\n";
 
     Progress progress("track", std::max(0, reader.frameCount()));
-    const auto t0 = std::chrono::steady_clock::now();
+    ScopedTimer timer;
     Mat mask;
     int i = 0;
     do {
@@ -127,7 +126,7 @@ TrackVideoSummary trackVideo(const std::string& video, InputArray _first_mask,
         progress.tick();
         ++i;
     } while (reader.read(frame));
-    summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    summary.seconds = timer.stop();
     progress.finish();
     csv.close();
     if (!csv) CV_Error(Error::StsError, "cannot finish writing '" + csv_tmp.string() + "'");
