@@ -42,16 +42,20 @@ std::vector<Point2d> projectPolygon(const Camera& cam, const std::vector<Vec3d>&
     return px;
 }
 
+Point toFixedPoint(const Point2d& p, int shift) {
+    // Pixel centres at integers: OpenCV's fixed-point drawing uses the same convention.
+    const double s = 1 << shift;
+    const double lim = 1e6;
+    return Point(cvRound(std::max(-lim, std::min(lim, p.x)) * s),
+                 cvRound(std::max(-lim, std::min(lim, p.y)) * s));
+}
+
 namespace {
 
 constexpr int kShift = 8;
 
 Point toFixed(const Point2d& p) {
-    // Pixel centres at integers: OpenCV's fixed-point drawing uses the same convention.
-    const double s = 1 << kShift;
-    const double lim = 1e6;
-    return Point(cvRound(std::max(-lim, std::min(lim, p.x)) * s),
-                 cvRound(std::max(-lim, std::min(lim, p.y)) * s));
+    return toFixedPoint(p, kShift);
 }
 
 }  // namespace

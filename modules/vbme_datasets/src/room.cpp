@@ -15,31 +15,22 @@ namespace {
 constexpr int kShift = 8;
 
 Point toFixed(const Point2d& p) {
-    // Pixel centres at integers: OpenCV's fixed-point drawing uses the same convention.
-    const double s = 1 << kShift;
-    const double lim = 1e6;
-    return Point(cvRound(std::max(-lim, std::min(lim, p.x)) * s),
-                 cvRound(std::max(-lim, std::min(lim, p.y)) * s));
+    return toFixedPoint(p, kShift);
 }
 
-/** Corners of a box face, in world coordinates. */
+/** Corners of a box face, in world coordinates: on the face's plane (Room::faceAxis(), the
+minimum side for even faces), running from the face's minimum corner along the lower-numbered
+axis first. Built from the box's own coordinates so that shared corners are exactly equal. */
 std::vector<Vec3d> faceCorners(const Room& r, int face) {
-    const Vec3d& a = r.min;
-    const Vec3d& b = r.max;
-    switch (face) {
-        case 0:
-            return {{a[0], a[1], a[2]}, {b[0], a[1], a[2]}, {b[0], b[1], a[2]}, {a[0], b[1], a[2]}};
-        case 1:
-            return {{a[0], a[1], b[2]}, {b[0], a[1], b[2]}, {b[0], b[1], b[2]}, {a[0], b[1], b[2]}};
-        case 2:
-            return {{a[0], a[1], a[2]}, {a[0], b[1], a[2]}, {a[0], b[1], b[2]}, {a[0], a[1], b[2]}};
-        case 3:
-            return {{b[0], a[1], a[2]}, {b[0], b[1], a[2]}, {b[0], b[1], b[2]}, {b[0], a[1], b[2]}};
-        case 4:
-            return {{a[0], a[1], a[2]}, {b[0], a[1], a[2]}, {b[0], a[1], b[2]}, {a[0], a[1], b[2]}};
-        default:
-            return {{a[0], b[1], a[2]}, {b[0], b[1], a[2]}, {b[0], b[1], b[2]}, {a[0], b[1], b[2]}};
+    const int ax = Room::faceAxis(face);
+    const int u = ax == 0 ? 1 : 0, v = ax == 2 ? 1 : 2;
+    std::vector<Vec3d> c(4);
+    for (int k = 0; k < 4; ++k) {
+        c[k][ax] = face % 2 == 0 ? r.min[ax] : r.max[ax];
+        c[k][u] = (k == 1 || k == 2) ? r.max[u] : r.min[u];
+        c[k][v] = k >= 2 ? r.max[v] : r.min[v];
     }
+    return c;
 }
 
 }  // namespace
@@ -61,7 +52,7 @@ Mat drawSyntheticRoom(const Camera& camera, const Room& room, double tile, doubl
     }
     // Pattern lines along the axes on every face.
     for (int f = 0; f < 6; ++f) {
-        const int ax = f <= 1 ? 2 : (f <= 3 ? 0 : 1);
+        const int ax = Room::faceAxis(f);
         const double coord = (f % 2 == 0) ? room.min[ax] : room.max[ax];
         const int u = (ax + 1) % 3, v = (ax + 2) % 3;
         const Scalar col = Scalar::all(grey[f] - 60);

@@ -25,6 +25,11 @@ CV_EXPORTS std::vector<Point2d> projectPolygon(const Camera& camera,
                                                const std::vector<Vec3d>& polygon,
                                                double near = 0.01);
 
+/** @brief Image point @p p in OpenCV's fixed-point drawing coordinates with @p shift fractional
+bits (pass the same shift to cv::line, cv::fillPoly, …; pixel centres at integers in both), each
+coordinate clamped to ±10⁶ pixels first so that a far projection stays drawable. */
+CV_EXPORTS Point toFixedPoint(const Point2d& p, int shift = 8);
+
 //! @}
 
 }  // namespace vbme
