@@ -59,15 +59,15 @@ void BM_MaterialEdit(benchmark::State& state, const char* material) {
     p.video = c.video;
     p.first_mask = c.mask;
     p.out = (c.dir / (std::string("out_") + material + ".mp4")).string();
-    p.material = parseMaterialSpec(material);
+    p.material = Material::preset(material);
     p.focal = c.focal;
     p.force = true;
     Progress::setEnabled(false);
     std::vector<std::pair<std::string, double>> stages;
     int frames = 0;
     for (auto _ : state) {
-        const MaterialEditReport r = runMaterialEdit(p);
-        frames += r.frames;
+        const PipelineReport r = runMaterialEdit(p);
+        frames += r.frames_processed;
         if (stages.empty())
             stages = r.seconds;
         else

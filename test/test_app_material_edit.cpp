@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 
@@ -92,10 +93,17 @@ TEST(AppMaterialEdit, BadInput) {
     EXPECT_EQ(r.code, 1) << r.output;
     EXPECT_NE(r.output.find("chrome"), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("glass"), std::string::npos) << r.output;
-    // Bad light.
-    r = vbme_test::run(cmd(dir, "--material blue --light sideways --out " + out));
+    // A material file that does not exist.
+    r = vbme_test::run(cmd(dir, "--material " + (dir / "missing.yml") + " --out " + out));
     EXPECT_EQ(r.code, 1) << r.output;
-    EXPECT_NE(r.output.find("fixed:x,y,z"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("does not exist"), std::string::npos) << r.output;
+    // Bad lights: not a light, a direction of two components, a zero direction.
+    for (const char* light : {"sideways", "fixed:1,2", "fixed:0,0,0", "fixed:1,2,3x"}) {
+        r = vbme_test::run(
+            cmd(dir, std::string("--material blue --light ") + light + " --out " + out));
+        EXPECT_EQ(r.code, 1) << light << ": " << r.output;
+        EXPECT_NE(r.output.find("fixed:x,y,z"), std::string::npos) << r.output;
+    }
     // The ball leaves at frame 3: lost track, named frame, nothing written.
     r = vbme_test::run(
         cmd(dir, "--material blue --out " + out + " --save-intermediates " + (dir / "inter")));
@@ -109,4 +117,37 @@ TEST(AppMaterialEdit, BadInput) {
     EXPECT_EQ(r.code, 1) << r.output;
     EXPECT_NE(r.output.find("empty"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(out));
+}
+
+// --material takes a YAML file with a top-level material: map, and --light fixed:x,y,z a
+// direction: the edit runs, and the ball's region differs from the preset edit's.
+TEST(AppMaterialEdit, MaterialFileAndFixedLight) {
+    vbme_test::ScratchDir dir;
+    writeClip(dir, 4);
+    {
+        std::FILE* f = std::fopen((dir / "red.yml").c_str(), "w");
+        ASSERT_NE(f, nullptr);
+        std::fputs("%YAML:1.0\nmaterial:\n  type: lambertian\n  albedo: [0.8, 0.05, 0.05]\n", f);
+        std::fclose(f);
+    }
+    auto r = vbme_test::run(cmd(dir, "--material " + (dir / "red.yml") +
+                                         " --light fixed:0,-1,-1 --out " + (dir / "red/%05d.png")));
+    ASSERT_EQ(r.code, 0) << r.output;
+    r = vbme_test::run(
+        cmd(dir, "--material blue --light fixed:0,-1,-1 --out " + (dir / "blue/%05d.png")));
+    ASSERT_EQ(r.code, 0) << r.output;
+    // In the ball of frame 0 (centre (30, 50), radius 14): red dominates in the file's edit,
+    // blue in the preset's.
+    const cv::Mat red = cv::imread(dir / "red/00000.png"),
+                  blue = cv::imread(dir / "blue/00000.png");
+    ASSERT_FALSE(red.empty());
+    ASSERT_FALSE(blue.empty());
+    cv::Mat mask = cv::Mat::zeros(red.size(), CV_8U);
+    cv::circle(mask, cv::Point(30, 50), 10, cv::Scalar(255), cv::FILLED);
+    const cv::Scalar mr = cv::mean(red, mask), mb = cv::mean(blue, mask);  // BGR
+    std::printf(
+        "[ measured ] ball mean BGR: file (red) %.0f %.0f %.0f, preset blue %.0f %.0f %.0f\n",
+        mr[0], mr[1], mr[2], mb[0], mb[1], mb[2]);
+    EXPECT_GT(mr[2], 2 * mr[0]);
+    EXPECT_GT(mb[0], mb[2]);
 }

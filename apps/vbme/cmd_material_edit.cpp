@@ -1,6 +1,10 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // vbme material-edit: re-render a filmed ball in another material (thesis chapter 4).
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <iostream>
 #include <memory>
 #include <string>
 
@@ -13,9 +17,69 @@ namespace vbme_app {
 
 namespace {
 
+namespace fs = std::filesystem;
+
+/** --material: a preset name (Material::presetNames()) or a material file (YAML/JSON with a
+top-level material: map); a clear error naming the valid presets otherwise. */
+cv::vbme::Material parseMaterialSpec(const std::string& spec) {
+    using cv::vbme::Material;
+    std::string list;
+    for (const auto& n : Material::presetNames())
+        list += (list.empty() ? "" : ", ") + n;
+    if (spec.empty())
+        CV_Error(cv::Error::StsBadArg,
+                 "no material given (expected a preset: " + list + "; or a material file)");
+    const std::string ext = fs::path(spec).extension().string();
+    std::error_code ec;
+    const bool looks_file = ext == ".yml" || ext == ".yaml" || ext == ".json" || ext == ".xml" ||
+                            spec.find('/') != std::string::npos;
+    if (fs::is_regular_file(spec, ec)) return cv::vbme::readMaterialFile(spec);
+    if (looks_file)
+        CV_Error(cv::Error::StsBadArg, "material file '" + spec +
+                                           "' does not exist (expected a preset: " + list +
+                                           "; or an existing YAML/JSON material file)");
+    const auto names = Material::presetNames();
+    if (std::find(names.begin(), names.end(), spec) == names.end())
+        CV_Error(cv::Error::StsBadArg, "unknown material '" + spec +
+                                           "' (expected a preset: " + list +
+                                           "; or a YAML/JSON file with a top-level material: map)");
+    return Material::preset(spec);
+}
+
+/** --light: "auto" (fitted to the original object's shading) or "fixed:x,y,z" (direction
+towards the light in camera coordinates, normalised; its strength is still fitted). */
+void parseLightSpec(const std::string& spec, cv::vbme::MaterialEditParams& p) {
+    if (spec == "auto") {
+        p.light = cv::vbme::MATERIAL_EDIT_LIGHT_AUTO;
+        return;
+    }
+    const std::string pre = "fixed:";
+    if (spec.compare(0, pre.size(), pre) == 0) {
+        double v[3];
+        char tail = 0;
+        if (std::sscanf(spec.c_str() + pre.size(), "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &tail) ==
+            3) {
+            const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+            if (n > 0 && std::isfinite(n)) {
+                p.light = cv::vbme::MATERIAL_EDIT_LIGHT_FIXED;
+                p.to_light = cv::Vec3d(v[0], v[1], v[2]) / n;
+                return;
+            }
+        }
+    }
+    CV_Error(cv::Error::StsBadArg, "invalid light '" + spec +
+                                       "' (expected 'auto' or 'fixed:x,y,z', a non-zero direction "
+                                       "towards the light in camera coordinates: x right, y "
+                                       "down, z forward)");
+}
+
 struct MaterialEditOptions {
     cv::vbme::MaterialEditParams params;
     std::string material;
+    std::string light = "auto";
+    std::string inpaint = "background";
+    std::string shadows = "keep";
+    std::string response = "srgb";
     CommonOptions common;
 };
 
@@ -36,7 +100,7 @@ void setupMaterialEdit(CLI::App& app) {
     app.add_option("--material", opt->material, "Preset name or material file")->required();
     app.add_option("--out", p.out, "Edited video (or numbered images, e.g. out/%05d.png)")
         ->required();
-    app.add_option("--light", p.light,
+    app.add_option("--light", opt->light,
                    "auto (fitted to the ball's shading per frame) or fixed:x,y,z (direction "
                    "towards the light, camera coordinates)");
     app.add_option("--focal", p.focal, "Focal length in pixels (default: 60 degree horizontal FOV)")
@@ -51,14 +115,14 @@ void setupMaterialEdit(CLI::App& app) {
                    "Consecutive frames the ball may be lost (the last disk is kept); more stop "
                    "the run")
         ->check(CLI::Range(0, 1000000));
-    app.add_option("--inpaint", p.inpaint,
+    app.add_option("--inpaint", opt->inpaint,
                    "background (static camera, fast) or video (aligned neighbours, slower)")
         ->check(CLI::IsMember({"background", "video"}));
-    app.add_option("--shadows", p.shadows,
+    app.add_option("--shadows", opt->shadows,
                    "The original ball's cast shadow: keep (default; the new ball casts none of "
                    "its own) or remove")
         ->check(CLI::IsMember({"keep", "remove"}));
-    app.add_option("--response", p.response, "Camera response: srgb, gamma2.2 or linear")
+    app.add_option("--response", opt->response, "Camera response: srgb, gamma2.2 or linear")
         ->check(CLI::IsMember({"srgb", "gamma2.2", "linear"}));
     app.add_option("--samples", p.samples, "Samples per pixel for rough lobes")
         ->check(CLI::Range(1, 4096));
@@ -67,9 +131,21 @@ void setupMaterialEdit(CLI::App& app) {
     app.callback([opt] {
         applyCommonOptions(opt->common);
         opt->params.force = opt->common.force;
-        opt->params.material = cv::vbme::parseMaterialSpec(opt->material);
-        const cv::vbme::MaterialEditReport r = cv::vbme::runMaterialEdit(opt->params);
-        if (!opt->common.quiet) r.print(stderr);
+        auto& p = opt->params;
+        p.material = parseMaterialSpec(opt->material);
+        parseLightSpec(opt->light, p);
+        p.inpaint = opt->inpaint == "video" ? cv::vbme::MATERIAL_EDIT_INPAINT_VIDEO
+                                            : cv::vbme::MATERIAL_EDIT_INPAINT_BACKGROUND;
+        p.shadows = cv::vbme::parseShadowMode(opt->shadows);
+        p.response = cv::vbme::parseResponse(opt->response);
+        std::unique_ptr<cv::vbme::Progress> bar;
+        const cv::vbme::PipelineReport r =
+            cv::vbme::runMaterialEdit(p, [&bar](const std::string& stage, int64 done, int64 total) {
+                if (!bar) bar.reset(new cv::vbme::Progress(stage, total));
+                bar->set(done);
+            });
+        if (bar) bar->finish();
+        if (!opt->common.quiet) r.print(std::cerr);
     });
 }
 

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -114,35 +115,38 @@ DemoResult runMaterialDemo(const DemoContext& ctx) {
         mp.video = input;
         mp.first_mask = first_mask;
         mp.out = e.out;
-        mp.material = parseMaterialSpec(e.material);
+        mp.material = Material::preset(e.material);
         mp.focal = clip.focal();
         mp.intermediates = e.steps;
         mp.force = ctx.force;
         mp.encode = ctx.encode;
         std::printf("demo material: editing the ball to %s -> %s\n", e.material, e.out.c_str());
-        const MaterialEditReport r = runMaterialEdit(mp);
-        r.print(stdout);
-        result.figures.push_back(format("%s edit: %d frames in %.1f s (%.2f frames/s), %d lost",
-                                        e.material, r.frames, r.total_seconds,
-                                        r.total_seconds > 0 ? r.frames / r.total_seconds : 0.0,
-                                        r.frames_lost));
-        if (e.steps.size() && !r.to_light.empty()) {  // the light fit is the same for both edits
+        std::vector<MaterialEditor::FrameResult> frames;
+        const PipelineReport r = runMaterialEdit(mp, PipelineProgress(), &frames);
+        std::ostringstream table;
+        r.print(table);
+        std::fputs(table.str().c_str(), stdout);
+        result.figures.push_back(format(
+            "%s edit: %d frames in %.1f s (%.2f frames/s), %d lost", e.material, r.frames_processed,
+            r.total_seconds, r.total_seconds > 0 ? r.frames_processed / r.total_seconds : 0.0,
+            r.frames_lost));
+        if (e.steps.size() && !frames.empty()) {  // the light fit is the same for both edits
             double mean = 0, worst = 0;
-            for (const Vec3d& l : r.to_light) {
-                const double a = angleDeg(l, truth_light);
+            for (const auto& f : frames) {
+                const double a = angleDeg(f.to_light, truth_light);
                 mean += a;
                 worst = std::max(worst, a);
             }
-            mean /= r.to_light.size();
-            const Vec3d l0 = r.to_light[0] / norm(r.to_light[0]);
+            mean /= frames.size();
+            const Vec3d l0 = frames[0].to_light / norm(frames[0].to_light);
             result.figures.push_back(format(
                 "key light fitted to the ball's shading (camera coords): frame 0 (%.2f, "
                 "%.2f, %.2f) vs truth (%.2f, %.2f, %.2f); angle error mean %.1f deg, "
                 "worst %.1f deg",
                 l0[0], l0[1], l0[2], truth_light[0], truth_light[1], truth_light[2], mean, worst));
         }
-        if (e.steps.size() && !r.albedo.empty()) {
-            const Vec3d a = r.albedo[0];
+        if (e.steps.size() && !frames.empty()) {
+            const Vec3d a = frames[0].albedo;
             result.figures.push_back(
                 format("albedo estimated on frame 0 (RGB) (%.3f, %.3f, %.3f) vs truth (%.3f, "
                        "%.3f, %.3f) (equal up to the light's unknown strength)",

@@ -1,6 +1,6 @@
 // Uses the installed vbme package: fits a disk to a drawn circle and checks the answer, and
-// reads a material through the pipeline module (the top of the dependency chain, so every
-// module's installed headers and libraries are exercised).
+// checks the material edit's settings through the pipeline module (the top of the dependency chain,
+// so every module's installed headers and libraries are exercised).
 #include <cstdio>
 
 #include <opencv2/vbme/pipeline.hpp>
@@ -12,7 +12,10 @@ int main() {
     cv::vbme::diskMask(cv::Size(80, 60), truth, mask);
     const cv::vbme::Disk d = cv::vbme::fitDisk(mask);
     const double err = cv::norm(d.center - truth.center) + std::abs(d.radius - truth.radius);
-    const cv::vbme::Material chrome = cv::vbme::parseMaterialSpec("chrome");
+    cv::vbme::MaterialEditParams params;
+    params.material = cv::vbme::Material::preset("chrome");
+    params.check();
+    const cv::vbme::Material& chrome = params.material;
     std::printf("vbme %s consumer: fitted (%.2f, %.2f) r %.2f, error %.3f; chrome is %s\n",
                 VBME_VERSION, d.center.x, d.center.y, d.radius, err,
                 cv::vbme::Material::typeName(chrome.type).c_str());

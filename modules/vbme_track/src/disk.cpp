@@ -1,8 +1,10 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 #include "opencv2/vbme/track/disk.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
@@ -197,6 +199,71 @@ Disk fitDisk(InputArray _mask, const Disk* init, const DiskFitParams& params) {
     const Disk start = init ? *init : f.initial();
     if (!init && start.radius <= 0) return Disk();
     return f.fit(start, params);
+}
+
+Disk refineDisk(InputArray _frame, InputArray _background, const Disk& disk) {
+    const Mat I = _frame.getMat(), B = _background.getMat();
+    if (I.type() != CV_32FC3 || B.type() != CV_32FC3 || I.size() != B.size())
+        CV_Error(Error::StsBadArg,
+                 "refineDisk: expected a linear CV_32FC3 frame and background of the same size");
+    Point2f c = disk.center;
+    const float r = disk.radius;
+    if (r < 6) return disk;
+    auto at = [](const Mat& m, float x, float y, Vec3f& v) {
+        if (x < 0 || y < 0 || x > m.cols - 1.001f || y > m.rows - 1.001f) return false;
+        const int x0 = (int)x, y0 = (int)y;
+        const float fx = x - x0, fy = y - y0;
+        v = (m.at<Vec3f>(y0, x0) * (1 - fx) + m.at<Vec3f>(y0, x0 + 1) * fx) * (1 - fy) +
+            (m.at<Vec3f>(y0 + 1, x0) * (1 - fx) + m.at<Vec3f>(y0 + 1, x0 + 1) * fx) * fy;
+        return true;
+    };
+    std::vector<Point2f> pts;
+    const int kRays = 64;
+    for (int k = 0; k < kRays; k++) {
+        const float a = (float)(2 * CV_PI * k / kRays), ux = std::cos(a), uy = std::sin(a);
+        Vec3f F;
+        if (!at(I, c.x + ux * (r - 1.25f), c.y + uy * (r - 1.25f), F)) continue;
+        float prev_alpha = 1.f, prev_rho = r - 1.25f, edge = -1;
+        bool ok = true;
+        for (float rho = r - 1.f; rho <= r + 2.5f; rho += 0.25f) {
+            Vec3f v, b;
+            if (!at(I, c.x + ux * rho, c.y + uy * rho, v) ||
+                !at(B, c.x + ux * rho, c.y + uy * rho, b)) {
+                ok = false;
+                break;
+            }
+            const Vec3f fb = F - b;
+            const float den = fb.dot(fb);
+            if (den < 0.02f * 0.02f) {
+                ok = false;
+                break;
+            }
+            const float alpha = (v - b).dot(fb) / den;
+            if (alpha < 0.5f) {
+                edge = prev_rho +
+                       (rho - prev_rho) * (prev_alpha - 0.5f) / std::max(1e-6f, prev_alpha - alpha);
+                break;
+            }
+            prev_alpha = alpha;
+            prev_rho = rho;
+        }
+        if (ok && edge > 0) pts.push_back(Point2f(c.x + ux * edge, c.y + uy * edge));
+    }
+    if ((int)pts.size() < 16) return disk;
+    // x² + y² + D x + E y + G = 0, solved for (D, E, G) in the least-squares sense.
+    Mat A((int)pts.size(), 3, CV_64F), b((int)pts.size(), 1, CV_64F), sol;
+    for (int i = 0; i < (int)pts.size(); i++) {
+        const double x = pts[i].x - c.x, y = pts[i].y - c.y;  // centred for conditioning
+        A.at<double>(i, 0) = x;
+        A.at<double>(i, 1) = y;
+        A.at<double>(i, 2) = 1;
+        b.at<double>(i) = -(x * x + y * y);
+    }
+    if (!solve(A, b, sol, DECOMP_SVD)) return disk;
+    const double cx = -sol.at<double>(0) / 2, cy = -sol.at<double>(1) / 2;
+    const double rr = std::sqrt(std::max(0.0, cx * cx + cy * cy - sol.at<double>(2)));
+    if (std::abs(cx) > 1.5 || std::abs(cy) > 1.5 || std::abs(rr - r) > 1.5) return disk;
+    return Disk(Point2f((float)(c.x + cx), (float)(c.y + cy)), (float)rr);
 }
 
 }  // namespace vbme

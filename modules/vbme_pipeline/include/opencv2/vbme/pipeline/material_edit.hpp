@@ -2,112 +2,195 @@
 #ifndef OPENCV_VBME_PIPELINE_MATERIAL_EDIT_HPP
 #define OPENCV_VBME_PIPELINE_MATERIAL_EDIT_HPP
 
-#include <cstdio>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "opencv2/vbme/core/response.hpp"
 #include "opencv2/vbme/core/scene.hpp"
 #include "opencv2/vbme/core/video.hpp"
+#include "opencv2/vbme/inpaint/consensus.hpp"
+#include "opencv2/vbme/pipeline/report.hpp"
 
 namespace cv {
 namespace vbme {
 
+class EnvironmentMap;
+
 //! @addtogroup vbme_pipeline
 //! @{
 
-/** @brief Material from a preset name (chrome, gold, glass, blue, ... as Material::preset) or
-a material file (YAML/JSON with a top-level material: map); clear error naming the valid
-presets. */
-CV_EXPORTS Material parseMaterialSpec(const std::string& spec);
+/** @brief Where the key light of the re-rendered object comes from. */
+enum MaterialEditLight {
+    /** Fitted per frame to the original object's shading (fitLighting()). */
+    MATERIAL_EDIT_LIGHT_AUTO = 0,
+    /** Along MaterialEditParams::to_light; only its strength and the ambient are fitted. */
+    MATERIAL_EDIT_LIGHT_FIXED = 1
+};
 
-/** @brief Parses a light specification: "auto" (fitted to the original object's shading) or
-"fixed:x,y,z" (direction towards the light in camera coordinates; its strength is still
-fitted). Throws cv::Exception saying what is expected otherwise.
-@param spec the text. @param fixed set to true for "fixed:…".
-@param to_light receives the unit direction for "fixed:…". */
-CV_EXPORTS void parseLightSpec(const std::string& spec, bool& fixed, Vec3d& to_light);
+/** @brief How the object's hole is filled from the neighbouring frames (ConsensusInpainter). */
+enum MaterialEditInpaint {
+    /** Static camera: the frames vote without alignment (CONSENSUS_ALIGN_NONE). */
+    MATERIAL_EDIT_INPAINT_BACKGROUND = 0,
+    /** Moving camera: frames aligned by homography and dense flow (CONSENSUS_ALIGN_FLOW). */
+    MATERIAL_EDIT_INPAINT_VIDEO = 1
+};
 
-/** @brief Settings of runMaterialEdit() (`vbme material-edit`). */
+/** @brief Settings of the material edit: the per-frame editing (MaterialEditor) and the
+file-to-file driver (runMaterialEdit(), `vbme material-edit`).
+
+The fields under "files" are used by runMaterialEdit() only; MaterialEditor reads the others.
+read() and write() use the field names as keys and the command line's words for the enums
+(light "auto" / "fixed", inpaint "background" / "video", shadows "keep" / "remove",
+response "srgb" / "gamma2.2" / "linear"); the material is a map as in a scene file. */
 struct CV_EXPORTS MaterialEditParams {
-    std::string video;           //!< input video (file, folder or pattern)
-    std::string first_mask;      //!< 8-bit mask of the object in frame 0 (255 = object)
-    std::string out;             //!< edited video
-    Material material;           //!< the new material
-    std::string light = "auto";  //!< "auto" (fit to the original object's shading) or "fixed:x,y,z"
-                                 //!< (camera coordinates)
-    double focal = 0;            //!< focal length in pixels (0: 60° horizontal field of view)
-    std::string env;  //!< optional user HDR environment (equirectangular); empty: from the frames
-    std::string
-        intermediates;  //!< optional folder: masks, inpainted background video, environment maps
-    bool force = false;
-    int threads = 0;  //!< 0: all cores
-
-    // Additions beyond the agreed interface (defaults suit 640×480 footage).
-    /** Consecutive frames the tracker may lose the object; the last disk is kept meanwhile.
-    More consecutive lost frames stop the run with an error naming the frame (default 0:
-    any lost frame is an error, since a kept disk would leave the real object visible). */
-    int max_lost = 0;
-    /** Background filling, both by ConsensusInpainter (a robust vote of the frames within
-    ±`lookahead` that see each hole pixel, leaving out those in the object's shadow; the rest
-    by exemplars): "background" (static camera, no alignment) or "video" (frames aligned by
-    homography and dense flow, for moving cameras; slower). */
-    std::string inpaint = "background";
-    int lookahead = 8;  //!< frames on each side that vote for the background fill
-    /** The original object's cast shadow: "keep" (default: the new object is rendered
-    without a shadow of its own, so the original one stays) or "remove" (detected near the
-    object and re-lit, ConsensusInpainter::Params::shadows). */
-    std::string shadows = "keep";
-    int env_every = 10;               //!< intermediates: write every N-th environment map
-    Size env_size = Size(256, 128);   //!< size of the per-frame environment maps
-    std::string response = "srgb";    //!< camera response of the video (srgb, gamma2.2, linear)
-    int samples = 4;                  //!< BSDF / light samples per pixel for rough lobes
-    double light_half_angle_deg = 3;  //!< angular radius of the key light (highlights)
-    double background_depth = 5;      //!< background plane behind the ball (ball radii), glass
-    double hole_margin = 3;           //!< pixels added to the disk's radius for the hole
-    /** Refine the tracked disk to sub-pixel accuracy against the inpainted background (the
-    edge where the coverage falls through ½ along 64 rays, circle fit; changes ≤ 1.5 px). */
-    bool refine_disk = true;
+    // ---- files (runMaterialEdit only)
+    std::string video;          //!< input video (file, folder or pattern)
+    std::string first_mask;     //!< 8-bit mask of the object in frame 0 (255 = object)
+    std::string out;            //!< edited video
+    std::string env;            //!< optional user HDR environment (equirectangular)
+    std::string intermediates;  //!< optional folder: masks, inpainted background, environments
+    int env_every = 10;         //!< intermediates: write every N-th environment map
+    bool force = false;         //!< overwrite existing outputs
+    int threads = 0;            //!< worker threads of this run (0: all cores)
     /** Encoding of the output video (codec, quality, pixel format). The input's timestamps,
-    colour tags and audio are carried to it (cv::vbme::sinkOptionsFrom). HDR input (PQ, HLG) is
-    converted to sRGB-encoded BT.709 (cv::vbme::VideoReader), which only `response` "srgb"
-    describes: with another response it is refused. */
+    colour tags and audio are carried to it (sinkOptionsFrom()). HDR input (PQ, HLG) is
+    converted to sRGB-encoded BT.709 (VideoReader), which only Response::SRGB describes: with
+    another response it is refused. */
     VideoSinkOptions encode;
+
+    // ---- the edit (MaterialEditor)
+    Material material;                                   //!< the new material
+    MaterialEditLight light = MATERIAL_EDIT_LIGHT_AUTO;  //!< where the key light comes from
+    Vec3d to_light = Vec3d(0, 0, -1);                    //!< MATERIAL_EDIT_LIGHT_FIXED: direction
+                                                         //!< towards the light (camera coordinates:
+                                                         //!< x right, y down, z forward), non-zero
+    double focal = 0;  //!< focal length in pixels (0: 60° horizontal field of view)
+    /** Consecutive frames the tracker may lose the object; the last disk is kept meanwhile.
+    More consecutive lost frames stop the edit with an error naming the frame (default 0: any
+    lost frame is an error, since a kept disk would leave the real object visible). */
+    int max_lost = 0;
+    MaterialEditInpaint inpaint = MATERIAL_EDIT_INPAINT_BACKGROUND;  //!< how the hole is filled
+    /** Frames on each side that vote for the background fill; also the editor's delay: a
+    frame comes out once `lookahead` later frames went in (or at finish()). */
+    int lookahead = 8;
+    /** The original object's cast shadow: SHADOWS_KEEP (the new object is rendered without a
+    shadow of its own, so the original one stays) or SHADOWS_REMOVE (detected near the object
+    and re-lit, ConsensusInpainter::Params::shadows). */
+    ShadowMode shadows = SHADOWS_KEEP;
+    Size env_size = Size(256, 128);      //!< size of the per-frame environment maps
+    Response response = Response::SRGB;  //!< camera response of the video
+    int samples = 4;                     //!< BSDF / light samples per pixel for rough lobes
+    double light_half_angle_deg = 3;     //!< angular radius of the key light (highlights)
+    double background_depth = 5;         //!< background plane behind the ball (ball radii), glass
+    double hole_margin = 3;              //!< pixels added to the disk's radius for the hole
+    /** Refine the tracked disk to sub-pixel accuracy against the inpainted background
+    (refineDisk(); changes ≤ 1.5 px). */
+    bool refine_disk = true;
+
+    /** @brief Throws cv::Exception naming the first invalid field and its valid range
+    (file names are checked by runMaterialEdit(), which opens them). */
+    void check() const;
+    /** @brief Reads the fields present in @p node (a map); absent ones keep their values.
+    A key that is not a field is an error naming it and listing the valid keys. */
+    void read(const FileNode& node);
+    /** @brief Writes every field (at the current level of @p fs, as a map's entries). */
+    void write(FileStorage& fs) const;
 };
 
-/** @brief What runMaterialEdit() did, with the time spent per stage. */
-struct CV_EXPORTS MaterialEditReport {
-    int frames = 0;
-    int frames_lost = 0;
-    std::vector<std::pair<std::string, double>>
-        seconds;  //!< per stage in pipeline order: decode, tracking, shape, inpainting,
-                  //!< environment, lighting, rendering, compositing, encode
-    double total_seconds = 0;
-    void print(FILE* f) const;  //!< the timing table (seconds and frames/s per stage)
+/** @brief The material edit of one video as an object fed frames in order and giving the
+edited frames back (thesis chapter 4, @cite Khan2006).
 
-    // Additions beyond the agreed interface.
-    std::vector<Vec3f> disks;     //!< per frame: tracked disk (cx, cy, r), pixels
-    std::vector<Vec3d> to_light;  //!< per frame: key light direction used (camera coords)
-    std::vector<double> fit_rms;  //!< per frame: RMS residual of the lighting fit (linear)
-    std::vector<Vec3d> albedo;    //!< per frame: estimated albedo of the original (RGB)
-    int pixels_exemplar = 0;      //!< hole pixels filled by exemplars (never seen)
-    int pixels_temporal = 0;      //!< hole pixels filled from other frames
+Per frame: the object marked in frame 0 is tracked (ObjectTracker; a lost frame keeps the last
+disk, up to MaterialEditParams::max_lost in a row), its shape recovered (sphere normals over
+the disk), removed (ConsensusInpainter over ±lookahead frames), its disk refined against the
+filled background (refineDisk()), the lighting fitted to its own shading (fitLighting()), the
+environment built from the filled frame (imageDiskToEnvironment()) unless one is given, and the
+object re-rendered in the new material and composited with anti-aliased edges.
+
+A frame comes out of pop() once `lookahead` later frames were pushed, or after finish();
+memory holds `2·lookahead + 2` frames whatever the video's length. Nothing is printed and the
+process-wide thread count is not changed; stage times go to report().
+@code
+    Ptr<MaterialEditor> ed = MaterialEditor::create(params, first_mask);
+    Mat frame, out;
+    while (reader.read(frame)) {
+        ed->push(frame);
+        while (ed->pop(out)) sink.write(out);
+    }
+    ed->finish();
+    while (ed->pop(out)) sink.write(out);
+@endcode
+*/
+class CV_EXPORTS MaterialEditor {
+public:
+    /** @brief What the editor measured on one frame. */
+    struct CV_EXPORTS FrameResult {
+        int index = 0;       //!< frame index (0 = first pushed frame)
+        bool lost = false;   //!< the tracker lost the object (the last disk was kept)
+        Vec3f disk;          //!< disk used for the edit (cx, cy, r) in pixels, after refinement
+        Vec3d to_light;      //!< key light direction used (camera coordinates, unit)
+        double fit_rms = 0;  //!< RMS residual of the lighting fit (linear)
+        Vec3d albedo;        //!< estimated albedo of the original object (RGB)
+    };
+
+    /** @brief Starts an edit.
+    @param params the edit's settings (checked with MaterialEditParams::check(); the "files"
+    fields are ignored).
+    @param first_mask CV_8U mask of the object in frame 0 (non-zero = object), of the frames'
+    size; it must mark some but not all pixels.
+    @param environment a user environment lighting every frame; empty: built per frame from
+    the filled background. Kept by reference count. */
+    static Ptr<MaterialEditor> create(
+        const MaterialEditParams& params, InputArray first_mask,
+        const Ptr<EnvironmentMap>& environment = Ptr<EnvironmentMap>());
+    virtual ~MaterialEditor();
+
+    /** @brief Adds the next frame (8-bit BGR, the first mask's size). Throws cv::Exception
+    when the object has been lost for more than max_lost frames in a row (naming the frame). */
+    virtual void push(InputArray frame) = 0;
+    /** @brief Declares that no more frames come; the remaining ones can then be popped. */
+    virtual void finish() = 0;
+    /** @brief Takes the next edited frame, in input order; false if none is ready.
+    @param edited the edited frame (8-bit BGR).
+    @param background optional: the frame with the object removed (8-bit BGR).
+    @param hole optional: the removed region (CV_8U, 255 = hole).
+    @param environment optional: the frame's equirectangular environment map (linear CV_32FC3,
+    MaterialEditParams::env_size), empty when a user environment is used. */
+    virtual bool pop(OutputArray edited, OutputArray background = noArray(),
+                     OutputArray hole = noArray(), OutputArray environment = noArray()) = 0;
+
+    /** @brief Per-frame results of the frames popped so far, in order. */
+    virtual const std::vector<FrameResult>& results() const = 0;
+    /** @brief Frame counts, seconds per stage (tracking, shape, inpainting, environment,
+    lighting, rendering, compositing) and the figures "pixels_temporal" (hole pixels filled
+    from other frames) and "pixels_exemplar" (by exemplars, never seen). */
+    virtual const PipelineReport& report() const = 0;
 };
 
-/** @brief The material-editing pipeline (thesis chapter 4, @cite Khan2006): the object
-marked in frame 0 is tracked (ObjectTracker), its shape recovered (sphere normals), removed
-(background fill), and re-rendered in @p p.material under lighting fitted to its own shading
-(fitLighting()) and the environment built from the inpainted frame
-(imageDiskToEnvironment()) or a user HDR, then composited with anti-aliased edges.
+/** @brief The material edit from file to file (`vbme material-edit`): reads @p p.video,
+edits it with MaterialEditor and writes @p p.out (and the intermediates when asked).
 
-Frames are streamed: memory holds `2·lookahead + 2` frames whatever the video's length. All
-inputs are checked before any output is written; outputs go to temporary names renamed when
-the whole video is done, so a failure leaves nothing half-written. Throws cv::Exception on bad
-input (empty first mask, object lost mid-video, unreadable files, existing outputs without
-force). See doc/vbme_pipeline_material_edit.md. */
-CV_EXPORTS MaterialEditReport runMaterialEdit(const MaterialEditParams& p);
+Frames are streamed (decoding and encoding overlap the editing). All inputs are checked before
+any output is written; outputs go to temporary names renamed when the whole video is done, so a
+failure leaves nothing half-written. The work runs on at most @p p.threads threads without
+changing the process-wide setting. Throws cv::Exception on bad input (empty first mask, object
+lost mid-video, unreadable files, existing outputs without force).
+@param p the settings.
+@param progress called with ("material-edit", frames done, frames total) after each frame.
+@param results optional: receives MaterialEditor::results() (per frame: disk, light, albedo).
+@return the report (pipeline "material-edit"): seconds per stage (decode, tracking, shape,
+inpainting, environment, lighting, rendering, compositing, encode) and the figures of
+MaterialEditor::report(). See doc/vbme_pipeline_material_edit.md. */
+CV_EXPORTS PipelineReport
+runMaterialEdit(const MaterialEditParams& p, const PipelineProgress& progress = PipelineProgress(),
+                std::vector<MaterialEditor::FrameResult>* results = nullptr);
+
+/** @brief "auto" or "fixed" (MaterialEditLight). */
+CV_EXPORTS std::string toString(MaterialEditLight m);
+/** @brief "background" or "video" (MaterialEditInpaint). */
+CV_EXPORTS std::string toString(MaterialEditInpaint m);
 
 //! @}
 

@@ -67,6 +67,21 @@ CV_EXPORTS Disk fitDisk(InputArray mask, const Disk* init = nullptr,
 bounding box's width and height. Radius 0 for an empty mask. */
 CV_EXPORTS Disk initialDisk(InputArray mask);
 
+/** @brief Sub-pixel refinement of a disk against the background behind it.
+
+Along 64 rays from the centre, the coverage `α = (I − B)·(F − B)/|F − B|²` (I the frame, B the
+background, F the frame 1.25 px inside the rim) falls through ½ at the edge, located by linear
+interpolation between samples 0.25 px apart from r − 1 to r + 2.5; a circle is fitted to those
+edge points (algebraic least squares, @cite Kasa1976). A ray is skipped where it leaves the
+image or where |F − B| < 0.02 (no contrast). The disk is returned unchanged when fewer than 16
+rays remain, when its radius is under 6 px, or when the fit moves the centre or the radius by
+more than 1.5 px (a fit that far off is not trusted).
+@param frame the frame showing the object, linear CV_32FC3.
+@param background the same view without the object (e.g. inpainted), linear CV_32FC3, same size.
+@param disk the disk to refine (e.g. ObjectTracker's, within about a pixel).
+@return the refined disk. */
+CV_EXPORTS Disk refineDisk(InputArray frame, InputArray background, const Disk& disk);
+
 //! @}
 
 }  // namespace vbme

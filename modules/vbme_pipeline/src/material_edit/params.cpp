@@ -1,0 +1,217 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// MaterialEditParams: validation and FileStorage reading/writing.
+#include <algorithm>
+#include <cmath>
+#include <type_traits>
+
+#include "opencv2/vbme/core/scene.hpp"
+#include "stages.hpp"
+
+namespace cv {
+namespace vbme {
+
+std::string toString(MaterialEditLight m) {
+    return m == MATERIAL_EDIT_LIGHT_FIXED ? "fixed" : "auto";
+}
+
+std::string toString(MaterialEditInpaint m) {
+    return m == MATERIAL_EDIT_INPAINT_VIDEO ? "video" : "background";
+}
+
+namespace {
+
+[[noreturn]] void bad(const std::string& field, const std::string& expected) {
+    CV_Error(Error::StsBadArg, "MaterialEditParams." + field + ": expected " + expected);
+}
+
+/** Reads the keys of a map, remembering which ones were asked for; finish() fails on the
+others, naming them and the valid keys. */
+class KeyReader {
+public:
+    KeyReader(const FileNode& node, const char* what) : node_(node), what_(what) {
+        if (!node.empty() && !node.isMap())
+            CV_Error(Error::StsParseError, std::string(what) + ": expected a map");
+    }
+    /** The node of @p key (empty when absent), recorded as a valid key. */
+    FileNode operator[](const char* key) {
+        valid_.push_back(key);
+        return node_.empty() ? FileNode() : node_[key];
+    }
+    template <class T>
+    void operator()(const char* key, T& v) {
+        const FileNode n = (*this)[key];
+        if (n.empty()) return;
+        if (!n.isInt() && !n.isReal() && !std::is_same<T, std::string>::value)
+            CV_Error(Error::StsParseError, std::string(what_) + "." + key + ": expected a number");
+        if constexpr (std::is_same<T, std::string>::value) {
+            if (!n.isString())
+                CV_Error(Error::StsParseError,
+                         std::string(what_) + "." + key + ": expected a string");
+            v = (std::string)n;
+        } else if constexpr (std::is_same<T, bool>::value) {
+            v = (int)n != 0;
+        } else {
+            v = (T)(double)n;
+        }
+    }
+    void finish() const {
+        if (node_.empty()) return;
+        std::string unknown, valid;
+        for (const FileNode& c : node_)
+            if (std::find(valid_.begin(), valid_.end(), c.name()) == valid_.end())
+                unknown += (unknown.empty() ? "" : ", ") + c.name();
+        if (unknown.empty()) return;
+        for (const std::string& k : valid_)
+            valid += (valid.empty() ? "" : ", ") + k;
+        CV_Error(Error::StsParseError,
+                 std::string(what_) + ": unknown key(s) " + unknown + " (valid: " + valid + ")");
+    }
+
+private:
+    FileNode node_;
+    const char* what_;
+    std::vector<std::string> valid_;
+};
+
+std::string readWord(const FileNode& n, const std::string& field) {
+    if (!n.isString()) CV_Error(Error::StsParseError, field + ": expected a string");
+    return (std::string)n;
+}
+
+}  // namespace
+
+void MaterialEditParams::check() const {
+    if (light != MATERIAL_EDIT_LIGHT_AUTO && light != MATERIAL_EDIT_LIGHT_FIXED)
+        bad("light", "MATERIAL_EDIT_LIGHT_AUTO or MATERIAL_EDIT_LIGHT_FIXED");
+    if (light == MATERIAL_EDIT_LIGHT_FIXED) {
+        const double n = norm(to_light);
+        if (!(n > 0) || !std::isfinite(n))
+            bad("to_light",
+                "a finite non-zero direction towards the light (camera "
+                "coordinates: x right, y down, z forward)");
+    }
+    if (!(focal >= 0) || !std::isfinite(focal))
+        bad("focal", "a focal length > 0 pixels, or 0 for a 60° horizontal field of view");
+    if (max_lost < 0) bad("max_lost", "≥ 0");
+    if (inpaint != MATERIAL_EDIT_INPAINT_BACKGROUND && inpaint != MATERIAL_EDIT_INPAINT_VIDEO)
+        bad("inpaint", "MATERIAL_EDIT_INPAINT_BACKGROUND or MATERIAL_EDIT_INPAINT_VIDEO");
+    if (lookahead < 0) bad("lookahead", "≥ 0");
+    if (shadows != SHADOWS_KEEP && shadows != SHADOWS_REMOVE)
+        bad("shadows", "SHADOWS_KEEP or SHADOWS_REMOVE");
+    if (env_every < 1) bad("env_every", "≥ 1");
+    if (env_size.width < 8 || env_size.height < 4) bad("env_size", "at least 8×4");
+    if (samples < 1) bad("samples", "≥ 1");
+    if (!(light_half_angle_deg > 0 && light_half_angle_deg < 80))
+        bad("light_half_angle_deg", "in (0, 80) degrees");
+    if (!(background_depth > 0) || !std::isfinite(background_depth))
+        bad("background_depth", "> 0 (ball radii)");
+    if (!(hole_margin >= 0) || !std::isfinite(hole_margin)) bad("hole_margin", "≥ 0 pixels");
+    if (threads < 0) bad("threads", "≥ 0 (0: all cores)");
+}
+
+void MaterialEditParams::read(const FileNode& node) {
+    KeyReader r(node, "material-edit params");
+    r("video", video);
+    r("first_mask", first_mask);
+    r("out", out);
+    r("env", env);
+    r("intermediates", intermediates);
+    r("env_every", env_every);
+    r("force", force);
+    r("threads", threads);
+    {
+        const FileNode e = r["encode"];
+        if (!e.empty()) {
+            KeyReader er(e, "material-edit params.encode");
+            er("codec", encode.codec);
+            er("crf", encode.crf);
+            er("preset", encode.preset);
+            double bitrate = (double)encode.bitrate;
+            er("bitrate", bitrate);
+            encode.bitrate = (int64)bitrate;
+            er("pix_fmt", encode.pix_fmt);
+            er.finish();
+        }
+    }
+    {
+        const FileNode m = r["material"];
+        if (!m.empty()) material.read(m, "material");
+    }
+    {
+        const FileNode n = r["light"];
+        if (!n.empty()) {
+            const std::string w = readWord(n, "light");
+            if (w == "auto")
+                light = MATERIAL_EDIT_LIGHT_AUTO;
+            else if (w == "fixed")
+                light = MATERIAL_EDIT_LIGHT_FIXED;
+            else
+                CV_Error(Error::StsParseError,
+                         "light: unknown '" + w + "' (expected 'auto' or 'fixed')");
+        }
+    }
+    {
+        const FileNode n = r["to_light"];
+        if (!n.empty()) to_light = readVec3(n, "to_light");
+    }
+    r("focal", focal);
+    r("max_lost", max_lost);
+    {
+        const FileNode n = r["inpaint"];
+        if (!n.empty()) {
+            const std::string w = readWord(n, "inpaint");
+            if (w == "background")
+                inpaint = MATERIAL_EDIT_INPAINT_BACKGROUND;
+            else if (w == "video")
+                inpaint = MATERIAL_EDIT_INPAINT_VIDEO;
+            else
+                CV_Error(Error::StsParseError,
+                         "inpaint: unknown '" + w + "' (expected 'background' or 'video')");
+        }
+    }
+    r("lookahead", lookahead);
+    {
+        const FileNode n = r["shadows"];
+        if (!n.empty()) shadows = parseShadowMode(readWord(n, "shadows"));
+    }
+    {
+        const FileNode n = r["env_size"];
+        if (!n.empty()) env_size = readImageSize(n, "env_size");
+    }
+    {
+        const FileNode n = r["response"];
+        if (!n.empty()) response = parseResponse(readWord(n, "response"));
+    }
+    r("samples", samples);
+    r("light_half_angle_deg", light_half_angle_deg);
+    r("background_depth", background_depth);
+    r("hole_margin", hole_margin);
+    r("refine_disk", refine_disk);
+    r.finish();
+}
+
+void MaterialEditParams::write(FileStorage& fs) const {
+    fs << "video" << video << "first_mask" << first_mask << "out" << out << "env" << env
+       << "intermediates" << intermediates << "env_every" << env_every << "force" << (int)force
+       << "threads" << threads;
+    fs << "encode"
+       << "{"
+       << "codec" << encode.codec << "crf" << encode.crf << "preset" << encode.preset << "bitrate"
+       << (double)encode.bitrate << "pix_fmt" << encode.pix_fmt << "}";
+    fs << "material"
+       << "{";
+    material.write(fs);
+    fs << "}";
+    fs << "light" << toString(light);
+    writeVec3(fs, "to_light", to_light);
+    fs << "focal" << focal << "max_lost" << max_lost << "inpaint" << toString(inpaint)
+       << "lookahead" << lookahead << "shadows" << toString(shadows);
+    fs << "env_size"
+       << "[:" << env_size.width << env_size.height << "]";
+    fs << "response" << toString(response) << "samples" << samples << "light_half_angle_deg"
+       << light_half_angle_deg << "background_depth" << background_depth << "hole_margin"
+       << hole_margin << "refine_disk" << (int)refine_disk;
+}
+
+}  // namespace vbme
+}  // namespace cv
