@@ -132,6 +132,9 @@ void setupMaterialEdit(CLI::App& app) {
         applyCommonOptions(opt->common);
         opt->params.force = opt->common.force;
         auto& p = opt->params;
+        // The command owns its process: OpenCV's own loops honour --threads too (the library
+        // limits only the work it starts, runLimited()).
+        if (p.threads > 0) cv::setNumThreads(p.threads);
         p.material = parseMaterialSpec(opt->material);
         parseLightSpec(opt->light, p);
         p.inpaint = opt->inpaint == "video" ? cv::vbme::MATERIAL_EDIT_INPAINT_VIDEO

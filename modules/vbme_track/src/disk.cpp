@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "disk_fitter.hpp"
+#include "opencv2/vbme/core/utility.hpp"
 
 namespace cv {
 namespace vbme {
@@ -211,10 +212,7 @@ Disk refineDisk(InputArray _frame, InputArray _background, const Disk& disk) {
     if (r < 6) return disk;
     auto at = [](const Mat& m, float x, float y, Vec3f& v) {
         if (x < 0 || y < 0 || x > m.cols - 1.001f || y > m.rows - 1.001f) return false;
-        const int x0 = (int)x, y0 = (int)y;
-        const float fx = x - x0, fy = y - y0;
-        v = (m.at<Vec3f>(y0, x0) * (1 - fx) + m.at<Vec3f>(y0, x0 + 1) * fx) * (1 - fy) +
-            (m.at<Vec3f>(y0 + 1, x0) * (1 - fx) + m.at<Vec3f>(y0 + 1, x0 + 1) * fx) * fy;
+        v = bilinear<Vec3f>(m, x, y);
         return true;
     };
     std::vector<Point2f> pts;

@@ -3,6 +3,7 @@
 // encoding of the last one run in their own threads, overlapping MaterialEditor's work.
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <future>
 #include <memory>
@@ -19,8 +20,6 @@ namespace vbme {
 namespace fs = std::filesystem;
 
 namespace {
-
-using material_edit::StageTimer;
 
 /** Removes a staging folder on scope exit. */
 struct Staging {
@@ -67,7 +66,7 @@ PipelineReport runEdit(const MaterialEditParams& p, const PipelineProgress& prog
     VideoReader reader(p.video, read_opt);
     Mat frame;
     {
-        StageTimer t(decode_s);
+        ScopedTimer t(decode_s);
         if (!reader.read(frame))
             CV_Error(Error::StsBadArg, "video '" + p.video + "' holds no frame");
     }
@@ -99,7 +98,7 @@ PipelineReport runEdit(const MaterialEditParams& p, const PipelineProgress& prog
             if (encoding.valid()) encoding.get();
             encoding = std::async(std::launch::async, [&, out, filled, hole, env, index,
                                                        time = reader.timestamps()[index]] {
-                StageTimer t(encode_s);
+                ScopedTimer t(encode_s);
                 sink.write(out, time);
                 if (bg_sink) bg_sink->write(filled);
                 if (!inter.empty()) {
@@ -122,7 +121,7 @@ PipelineReport runEdit(const MaterialEditParams& p, const PipelineProgress& prog
             // Decode the next frame in its own thread while this one is processed.
             Mat next_frame;
             std::future<bool> decoding = std::async(std::launch::async, [&] {
-                StageTimer t(decode_s);
+                ScopedTimer t(decode_s);
                 return reader.read(next_frame);
             });
             try {
@@ -143,7 +142,7 @@ PipelineReport runEdit(const MaterialEditParams& p, const PipelineProgress& prog
 
     if (encoding.valid()) encoding.get();
     {
-        StageTimer t(encode_s);
+        ScopedTimer t(encode_s);
         sink.close();
         if (bg_sink) bg_sink->close();
         if (!inter.empty()) {
@@ -175,7 +174,9 @@ PipelineReport runEdit(const MaterialEditParams& p, const PipelineProgress& prog
 
 PipelineReport runMaterialEdit(const MaterialEditParams& p, const PipelineProgress& progress,
                                std::vector<MaterialEditor::FrameResult>* results) {
-    return runEdit(p, progress, results);
+    PipelineReport report;
+    runLimited(p.threads, [&] { report = runEdit(p, progress, results); });
+    return report;
 }
 
 }  // namespace vbme

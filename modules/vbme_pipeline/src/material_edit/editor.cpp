@@ -65,19 +65,19 @@ public:
         FrameItem it;
         it.index = pushed_;
         {
-            StageTimer t(sec(TRACKING));
+            ScopedTimer t(sec(TRACKING));
             const Disk d = track_->update(frame, pushed_, it.lost);
             it.center = d.center;
             it.radius = d.radius;
         }
         if (it.lost) report_.frames_lost++;
         {
-            StageTimer t(sec(SHAPE));
+            ScopedTimer t(sec(SHAPE));
             objectHole(size_, it.center, it.radius, p_.hole_margin, it.hole);
             it.frame = frame;
         }
         {
-            StageTimer t(sec(INPAINTING));
+            ScopedTimer t(sec(INPAINTING));
             fill_.push(std::move(it));
         }
         ++pushed_;
@@ -87,7 +87,7 @@ public:
     void finish() override {
         if (finished_) return;
         finished_ = true;
-        StageTimer t(sec(INPAINTING));
+        ScopedTimer t(sec(INPAINTING));
         fill_.finish();
     }
 
@@ -96,24 +96,24 @@ public:
         FrameItem it;
         Mat filled;
         {
-            StageTimer t(sec(INPAINTING));
+            ScopedTimer t(sec(INPAINTING));
             if (!fill_.pop(it, filled)) return false;
         }
         Point2f c = it.center;
         float r = it.radius;
         {
-            StageTimer t(sec(ENVIRONMENT));
+            ScopedTimer t(sec(ENVIRONMENT));
             linearize(filled, bg_lin_, p_.response);
         }
         const Rect big = Rect(Point(cvFloor(c.x - r - 6), cvFloor(c.y - r - 6)),
                               Point(cvCeil(c.x + r + 7), cvCeil(c.y + r + 7))) &
                          Rect(Point(0, 0), size_);
         {
-            StageTimer t(sec(LIGHTING));
+            ScopedTimer t(sec(LIGHTING));
             linearize(it.frame(big), big_lin_, p_.response);
         }
         if (p_.refine_disk) {
-            StageTimer t(sec(SHAPE));
+            ScopedTimer t(sec(SHAPE));
             const Point2f tl((float)big.x, (float)big.y);
             const Disk d = refineDisk(big_lin_, bg_lin_(big), Disk(c - tl, r));
             c = d.center + tl;
@@ -121,20 +121,20 @@ public:
         }
         const Rect box = renderBox(size_, c, r);
         {
-            StageTimer t(sec(SHAPE));
+            ScopedTimer t(sec(SHAPE));
             sphereNormalsInBox(box, c, r, normals_, fit_mask_);
         }
         Mat eq;
         EnvironmentMap frame_env(Vec3f(0, 0, 0));
         if (!env_) {
-            StageTimer t(sec(ENVIRONMENT));
+            ScopedTimer t(sec(ENVIRONMENT));
             eq = environmentFromFrame(bg_lin_, p_.env_size);
             frame_env = EnvironmentMap(eq);
         }
         const EnvironmentMap& env = env_ ? *env_ : frame_env;
         LightingFit fit;
         {
-            StageTimer t(sec(LIGHTING));
+            ScopedTimer t(sec(LIGHTING));
             fit = fitObjectLighting(big_lin_(box - big.tl()), normals_, fit_mask_, p_);
         }
         FrameResult res;
@@ -146,12 +146,12 @@ public:
         res.albedo = Vec3d(fit.albedo[0], fit.albedo[1], fit.albedo[2]);
         results_.push_back(res);
         {
-            StageTimer t(sec(RENDERING));
+            ScopedTimer t(sec(RENDERING));
             renderObject(p_, bg_lin_, c, r, focal_, fit, env, rendered_);
         }
         Mat out8;
         {
-            StageTimer t(sec(COMPOSITING));
+            ScopedTimer t(sec(COMPOSITING));
             compositeObject(filled, rendered_, box, p_.response, out8);
         }
         edited.assign(out8);

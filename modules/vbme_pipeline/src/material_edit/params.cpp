@@ -2,9 +2,9 @@
 // MaterialEditParams: validation and FileStorage reading/writing.
 #include <algorithm>
 #include <cmath>
-#include <type_traits>
 
 #include "opencv2/vbme/core/scene.hpp"
+#include "opencv2/vbme/core/utility.hpp"
 #include "stages.hpp"
 
 namespace cv {
@@ -23,55 +23,6 @@ namespace {
 [[noreturn]] void bad(const std::string& field, const std::string& expected) {
     CV_Error(Error::StsBadArg, "MaterialEditParams." + field + ": expected " + expected);
 }
-
-/** Reads the keys of a map, remembering which ones were asked for; finish() fails on the
-others, naming them and the valid keys. */
-class KeyReader {
-public:
-    KeyReader(const FileNode& node, const char* what) : node_(node), what_(what) {
-        if (!node.empty() && !node.isMap())
-            CV_Error(Error::StsParseError, std::string(what) + ": expected a map");
-    }
-    /** The node of @p key (empty when absent), recorded as a valid key. */
-    FileNode operator[](const char* key) {
-        valid_.push_back(key);
-        return node_.empty() ? FileNode() : node_[key];
-    }
-    template <class T>
-    void operator()(const char* key, T& v) {
-        const FileNode n = (*this)[key];
-        if (n.empty()) return;
-        if (!n.isInt() && !n.isReal() && !std::is_same<T, std::string>::value)
-            CV_Error(Error::StsParseError, std::string(what_) + "." + key + ": expected a number");
-        if constexpr (std::is_same<T, std::string>::value) {
-            if (!n.isString())
-                CV_Error(Error::StsParseError,
-                         std::string(what_) + "." + key + ": expected a string");
-            v = (std::string)n;
-        } else if constexpr (std::is_same<T, bool>::value) {
-            v = (int)n != 0;
-        } else {
-            v = (T)(double)n;
-        }
-    }
-    void finish() const {
-        if (node_.empty()) return;
-        std::string unknown, valid;
-        for (const FileNode& c : node_)
-            if (std::find(valid_.begin(), valid_.end(), c.name()) == valid_.end())
-                unknown += (unknown.empty() ? "" : ", ") + c.name();
-        if (unknown.empty()) return;
-        for (const std::string& k : valid_)
-            valid += (valid.empty() ? "" : ", ") + k;
-        CV_Error(Error::StsParseError,
-                 std::string(what_) + ": unknown key(s) " + unknown + " (valid: " + valid + ")");
-    }
-
-private:
-    FileNode node_;
-    const char* what_;
-    std::vector<std::string> valid_;
-};
 
 std::string readWord(const FileNode& n, const std::string& field) {
     if (!n.isString()) CV_Error(Error::StsParseError, field + ": expected a string");
@@ -110,7 +61,7 @@ void MaterialEditParams::check() const {
 }
 
 void MaterialEditParams::read(const FileNode& node) {
-    KeyReader r(node, "material-edit params");
+    ParamsReader r(node, "material-edit params");
     r("video", video);
     r("first_mask", first_mask);
     r("out", out);
@@ -120,9 +71,9 @@ void MaterialEditParams::read(const FileNode& node) {
     r("force", force);
     r("threads", threads);
     {
-        const FileNode e = r["encode"];
+        const FileNode e = r.node("encode");
         if (!e.empty()) {
-            KeyReader er(e, "material-edit params.encode");
+            ParamsReader er(e, "material-edit params.encode");
             er("codec", encode.codec);
             er("crf", encode.crf);
             er("preset", encode.preset);
@@ -134,11 +85,11 @@ void MaterialEditParams::read(const FileNode& node) {
         }
     }
     {
-        const FileNode m = r["material"];
+        const FileNode m = r.node("material");
         if (!m.empty()) material.read(m, "material");
     }
     {
-        const FileNode n = r["light"];
+        const FileNode n = r.node("light");
         if (!n.empty()) {
             const std::string w = readWord(n, "light");
             if (w == "auto")
@@ -151,13 +102,13 @@ void MaterialEditParams::read(const FileNode& node) {
         }
     }
     {
-        const FileNode n = r["to_light"];
+        const FileNode n = r.node("to_light");
         if (!n.empty()) to_light = readVec3(n, "to_light");
     }
     r("focal", focal);
     r("max_lost", max_lost);
     {
-        const FileNode n = r["inpaint"];
+        const FileNode n = r.node("inpaint");
         if (!n.empty()) {
             const std::string w = readWord(n, "inpaint");
             if (w == "background")
@@ -171,15 +122,15 @@ void MaterialEditParams::read(const FileNode& node) {
     }
     r("lookahead", lookahead);
     {
-        const FileNode n = r["shadows"];
+        const FileNode n = r.node("shadows");
         if (!n.empty()) shadows = parseShadowMode(readWord(n, "shadows"));
     }
     {
-        const FileNode n = r["env_size"];
+        const FileNode n = r.node("env_size");
         if (!n.empty()) env_size = readImageSize(n, "env_size");
     }
     {
-        const FileNode n = r["response"];
+        const FileNode n = r.node("response");
         if (!n.empty()) response = parseResponse(readWord(n, "response"));
     }
     r("samples", samples);

@@ -13,11 +13,11 @@
 #ifndef VBME_PIPELINE_MATERIAL_EDIT_STAGES_HPP
 #define VBME_PIPELINE_MATERIAL_EDIT_STAGES_HPP
 
-#include <chrono>
 #include <deque>
 
 #include <opencv2/core.hpp>
 
+#include "opencv2/vbme/core/utility.hpp"
 #include "opencv2/vbme/inpaint.hpp"
 #include "opencv2/vbme/pipeline/material_edit.hpp"
 #include "opencv2/vbme/render/environment.hpp"
@@ -27,16 +27,6 @@
 namespace cv {
 namespace vbme {
 namespace material_edit {
-
-/** Adds the wall seconds of its scope to a double. */
-struct StageTimer {
-    double* acc;
-    std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
-    explicit StageTimer(double& a) : acc(&a) {}
-    ~StageTimer() {
-        *acc += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    }
-};
 
 // ---- tracking.cpp
 

@@ -53,7 +53,10 @@ struct CV_EXPORTS MaterialEditParams {
     std::string intermediates;  //!< optional folder: masks, inpainted background, environments
     int env_every = 10;         //!< intermediates: write every N-th environment map
     bool force = false;         //!< overwrite existing outputs
-    int threads = 0;            //!< worker threads of this run (0: all cores)
+    /** Worker threads of this run (0: all cores), through runLimited(): limits the TBB work
+    of the run, not cv::parallel_for_ loops, and never changes the process-wide setting (the
+    command line, which owns its process, also sets cv::setNumThreads()). */
+    int threads = 0;
     /** Encoding of the output video (codec, quality, pixel format). The input's timestamps,
     colour tags and audio are carried to it (sinkOptionsFrom()). HDR input (PQ, HLG) is
     converted to sRGB-encoded BT.709 (VideoReader), which only Response::SRGB describes: with
@@ -174,8 +177,8 @@ edits it with MaterialEditor and writes @p p.out (and the intermediates when ask
 
 Frames are streamed (decoding and encoding overlap the editing). All inputs are checked before
 any output is written; outputs go to temporary names renamed when the whole video is done, so a
-failure leaves nothing half-written. The work runs on at most @p p.threads threads without
-changing the process-wide setting. Throws cv::Exception on bad input (empty first mask, object
+failure leaves nothing half-written. The run is wrapped in runLimited(@p p.threads), which does
+not change the process-wide thread setting. Throws cv::Exception on bad input (empty first mask, object
 lost mid-video, unreadable files, existing outputs without force).
 @param p the settings.
 @param progress called with ("material-edit", frames done, frames total) after each frame.
