@@ -164,6 +164,9 @@ public:
                 environment.assign(eq);
         }
         report_.frames_processed++;
+        report_.total_seconds = 0;  // the editor's own time: the sum of its stages
+        for (const auto& st : report_.seconds)
+            report_.total_seconds += st.second;
         report_.setFigure("pixels_temporal", fill_.temporal);
         report_.setFigure("pixels_exemplar", fill_.exemplar);
         return true;

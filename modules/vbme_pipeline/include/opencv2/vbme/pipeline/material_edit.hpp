@@ -178,8 +178,8 @@ edits it with MaterialEditor and writes @p p.out (and the intermediates when ask
 Frames are streamed (decoding and encoding overlap the editing). All inputs are checked before
 any output is written; outputs go to temporary names renamed when the whole video is done, so a
 failure leaves nothing half-written. The run is wrapped in runLimited(@p p.threads), which does
-not change the process-wide thread setting. Throws cv::Exception on bad input (empty first mask, object
-lost mid-video, unreadable files, existing outputs without force).
+not change the process-wide thread setting. Throws cv::Exception on bad input (empty first mask,
+object lost mid-video, unreadable files, existing outputs without force).
 @param p the settings.
 @param progress called with ("material-edit", frames done, frames total) after each frame.
 @param results optional: receives MaterialEditor::results() (per frame: disk, light, albedo).
