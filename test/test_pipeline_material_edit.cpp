@@ -404,6 +404,15 @@ TEST(PipelineMaterialEdit, ParamsReadWriteCheck) {
         EXPECT_NE(m.find("lokahead"), std::string::npos) << m;
         EXPECT_NE(m.find("lookahead"), std::string::npos) << m;
     }
+    FileStorage word("%YAML:1.0\nparams: { inpaint: magic }\n",
+                     FileStorage::READ | FileStorage::MEMORY);
+    try {
+        c.read(word["params"]);
+        FAIL() << "expected an error";
+    } catch (const cv::Exception& e) {
+        EXPECT_NE(std::string(e.what()).find("'background', 'video'"), std::string::npos)
+            << e.what();
+    }
     MaterialEditParams d;
     d.samples = 0;
     try {

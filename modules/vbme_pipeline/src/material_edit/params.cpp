@@ -2,6 +2,7 @@
 // MaterialEditParams: validation and FileStorage reading/writing.
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 
 #include "opencv2/vbme/core/scene.hpp"
 #include "opencv2/vbme/core/utility.hpp"
@@ -27,6 +28,24 @@ namespace {
 std::string readWord(const FileNode& n, const std::string& field) {
     if (!n.isString()) CV_Error(Error::StsParseError, field + ": expected a string");
     return (std::string)n;
+}
+
+/** Reads @p key as one of the words toString() gives for @p values. */
+template <class E>
+void readChoice(ParamsReader& r, const char* key, E& v, std::initializer_list<E> values) {
+    const FileNode n = r.node(key);
+    if (n.empty()) return;
+    const std::string w = readWord(n, key);
+    std::string list;
+    for (E e : values) {
+        if (toString(e) == w) {
+            v = e;
+            return;
+        }
+        list += (list.empty() ? "'" : ", '") + toString(e) + "'";
+    }
+    CV_Error(Error::StsParseError,
+             std::string(key) + ": unknown '" + w + "' (expected " + list + ")");
 }
 
 }  // namespace
@@ -88,51 +107,22 @@ void MaterialEditParams::read(const FileNode& node) {
         const FileNode m = r.node("material");
         if (!m.empty()) material.read(m, "material");
     }
-    {
-        const FileNode n = r.node("light");
-        if (!n.empty()) {
-            const std::string w = readWord(n, "light");
-            if (w == "auto")
-                light = MATERIAL_EDIT_LIGHT_AUTO;
-            else if (w == "fixed")
-                light = MATERIAL_EDIT_LIGHT_FIXED;
-            else
-                CV_Error(Error::StsParseError,
-                         "light: unknown '" + w + "' (expected 'auto' or 'fixed')");
-        }
-    }
+    readChoice(r, "light", light, {MATERIAL_EDIT_LIGHT_AUTO, MATERIAL_EDIT_LIGHT_FIXED});
     {
         const FileNode n = r.node("to_light");
         if (!n.empty()) to_light = readVec3(n, "to_light");
     }
     r("focal", focal);
     r("max_lost", max_lost);
-    {
-        const FileNode n = r.node("inpaint");
-        if (!n.empty()) {
-            const std::string w = readWord(n, "inpaint");
-            if (w == "background")
-                inpaint = MATERIAL_EDIT_INPAINT_BACKGROUND;
-            else if (w == "video")
-                inpaint = MATERIAL_EDIT_INPAINT_VIDEO;
-            else
-                CV_Error(Error::StsParseError,
-                         "inpaint: unknown '" + w + "' (expected 'background' or 'video')");
-        }
-    }
+    readChoice(r, "inpaint", inpaint,
+               {MATERIAL_EDIT_INPAINT_BACKGROUND, MATERIAL_EDIT_INPAINT_VIDEO});
     r("lookahead", lookahead);
-    {
-        const FileNode n = r.node("shadows");
-        if (!n.empty()) shadows = parseShadowMode(readWord(n, "shadows"));
-    }
+    readChoice(r, "shadows", shadows, {SHADOWS_KEEP, SHADOWS_REMOVE});
     {
         const FileNode n = r.node("env_size");
         if (!n.empty()) env_size = readImageSize(n, "env_size");
     }
-    {
-        const FileNode n = r.node("response");
-        if (!n.empty()) response = parseResponse(readWord(n, "response"));
-    }
+    readChoice(r, "response", response, {Response::SRGB, Response::GAMMA22, Response::LINEAR});
     r("samples", samples);
     r("light_half_angle_deg", light_half_angle_deg);
     r("background_depth", background_depth);
