@@ -75,8 +75,9 @@ struct CV_EXPORTS MaterialEditParams {
     lost frame is an error, since a kept disk would leave the real object visible). */
     int max_lost = 0;
     MaterialEditInpaint inpaint = MATERIAL_EDIT_INPAINT_BACKGROUND;  //!< how the hole is filled
-    /** Frames on each side that vote for the background fill; also the editor's delay: a
-    frame comes out once `lookahead` later frames went in (or at finish()). */
+    /** Frames on each side that vote for the background fill (at least 1 is used); also the
+    editor's delay: a frame comes out once max(1, lookahead) later frames went in (or at
+    finish()). */
     int lookahead = 8;
     /** The original object's cast shadow: SHADOWS_KEEP (the new object is rendered without a
     shadow of its own, so the original one stays) or SHADOWS_REMOVE (detected near the object
@@ -112,9 +113,9 @@ filled background (refineDisk()), the lighting fitted to its own shading (fitLig
 environment built from the filled frame (imageDiskToEnvironment()) unless one is given, and the
 object re-rendered in the new material and composited with anti-aliased edges.
 
-A frame comes out of pop() once `lookahead` later frames were pushed, or after finish();
-memory holds `2·lookahead + 2` frames whatever the video's length. Nothing is printed and the
-process-wide thread count is not changed; stage times go to report().
+A frame comes out of pop() once max(1, `lookahead`) later frames were pushed, or after
+finish(); memory holds `2·max(1, lookahead) + 2` frames whatever the video's length. Nothing is
+printed and the process-wide thread count is not changed; stage times go to report().
 @code
     Ptr<MaterialEditor> ed = MaterialEditor::create(params, first_mask);
     Mat frame, out;
@@ -148,6 +149,7 @@ public:
     static Ptr<MaterialEditor> create(
         const MaterialEditParams& params, InputArray first_mask,
         const Ptr<EnvironmentMap>& environment = Ptr<EnvironmentMap>());
+    /** @brief Destructor (frames still queued are dropped). */
     virtual ~MaterialEditor();
 
     /** @brief Adds the next frame (8-bit BGR, the first mask's size). Throws cv::Exception
@@ -168,7 +170,8 @@ public:
     virtual const std::vector<FrameResult>& results() const = 0;
     /** @brief Frame counts, seconds per stage (tracking, shape, inpainting, environment,
     lighting, rendering, compositing) and the figures "pixels_temporal" (hole pixels filled
-    from other frames) and "pixels_exemplar" (by exemplars, never seen). */
+    from other frames) and "pixels_exemplar" (by exemplars, never seen); total_seconds is
+    the sum of the stages (the editor's own time). */
     virtual const PipelineReport& report() const = 0;
 };
 
