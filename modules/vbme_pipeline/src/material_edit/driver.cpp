@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <future>
 #include <memory>
+#include <vector>
 
 #include <opencv2/core/utils/logger.hpp>
 
@@ -70,6 +71,9 @@ PipelineReport runEdit(const MaterialEditParams& p, const PipelineProgress& prog
         if (!reader.read(frame))
             CV_Error(Error::StsBadArg, "video '" + p.video + "' holds no frame");
     }
+    // The frames' times, kept by this thread: the reader's own list grows in the decoding
+    // thread while the frames already decoded are being encoded.
+    std::vector<double> times(1, reader.timestamp());
     const Size size = frame.size();
     // the first-frame mask: readable, of the video's size, marking some but not all pixels
     const Mat first_mask = readObjectMask(p.first_mask, size);
@@ -96,21 +100,21 @@ PipelineReport runEdit(const MaterialEditParams& p, const PipelineProgress& prog
             const int index = editor->results().back().index;
             // Encoding runs in its own thread, overlapping the next frame's work.
             if (encoding.valid()) encoding.get();
-            encoding = std::async(std::launch::async, [&, out, filled, hole, env, index,
-                                                       time = reader.timestamps()[index]] {
-                ScopedTimer t(encode_s);
-                sink.write(out, time);
-                if (bg_sink) bg_sink->write(filled);
-                if (!inter.empty()) {
-                    imwriteAtomic((staging.dir / maskFileName(index)).string(), hole);
-                    if (!env.empty() && index % p.env_every == 0) {
-                        Mat ch[3];
-                        split(env, ch);
-                        writeExrChannels((staging.dir / format("env_%05d.exr", index)).string(),
-                                         {{"R", ch[2]}, {"G", ch[1]}, {"B", ch[0]}});
+            encoding = std::async(
+                std::launch::async, [&, out, filled, hole, env, index, time = times[index]] {
+                    ScopedTimer t(encode_s);
+                    sink.write(out, time);
+                    if (bg_sink) bg_sink->write(filled);
+                    if (!inter.empty()) {
+                        imwriteAtomic((staging.dir / maskFileName(index)).string(), hole);
+                        if (!env.empty() && index % p.env_every == 0) {
+                            Mat ch[3];
+                            split(env, ch);
+                            writeExrChannels((staging.dir / format("env_%05d.exr", index)).string(),
+                                             {{"R", ch[2]}, {"G", ch[1]}, {"B", ch[0]}});
+                        }
                     }
-                }
-            });
+                });
             ++done;
             if (progress) progress("material-edit", done, total);
         }
@@ -131,6 +135,7 @@ PipelineReport runEdit(const MaterialEditParams& p, const PipelineProgress& prog
                 throw;
             }
             if (!decoding.get()) break;
+            times.push_back(reader.timestamp());
             frame = next_frame;  // the editor keeps its own reference to the previous frame
         }
         editor->finish();
