@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -230,8 +231,8 @@ TEST(PipelineMaterialEdit, SelfConsistencyAndBackground) {
         // (the encoder thread once wrote a fill buffer the next frame was already reusing).
         Mat away;
         bitwise_not(diskMaskOf(clip.size, clip.center(n), clip.radius + 4.f), away);
-        worst_bg_vs_out = std::min(worst_bg_vs_out,
-                                   psnr(f, imread(dir / format("own/%05d.png", n)), away));
+        worst_bg_vs_out =
+            std::min(worst_bg_vs_out, psnr(f, imread(dir / format("own/%05d.png", n)), away));
         ++n;
     }
     EXPECT_EQ(n, clip.frames);
@@ -328,11 +329,20 @@ TEST(PipelineMaterialEdit, EditorInMemoryMatchesDriverAndDelay) {
         EXPECT_EQ(res[i].index, i);
     }
     std::vector<int64> progress_done;
+    // The library prints nothing (progress goes to the callback; its one log line is INFO).
+    const auto level = utils::logging::setLogLevel(utils::logging::LOG_LEVEL_WARNING);
+    testing::internal::CaptureStdout();
+    testing::internal::CaptureStderr();
     runMaterialEdit(p, [&](const std::string& stage, int64 done, int64 total) {
         EXPECT_EQ(stage, "material-edit");
         EXPECT_EQ(total, clip.frames);
         progress_done.push_back(done);
     });
+    const std::string printed_out = testing::internal::GetCapturedStdout(),
+                      printed_err = testing::internal::GetCapturedStderr();
+    utils::logging::setLogLevel(level);
+    EXPECT_EQ(printed_out, "");
+    EXPECT_EQ(printed_err, "");
     ASSERT_EQ((int)progress_done.size(), clip.frames);
     EXPECT_EQ(progress_done.back(), clip.frames);
     for (int i = 0; i < clip.frames; i++) {
