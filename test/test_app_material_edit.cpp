@@ -133,9 +133,17 @@ TEST(AppMaterialEdit, MaterialFileAndFixedLight) {
     auto r = vbme_test::run(cmd(dir, "--material " + (dir / "red.yml") +
                                          " --light fixed:0,-1,-1 --out " + (dir / "red/%05d.png")));
     ASSERT_EQ(r.code, 0) << r.output;
-    r = vbme_test::run(
-        cmd(dir, "--material blue --light fixed:0,-1,-1 --out " + (dir / "blue/%05d.png")));
+    r = vbme_test::run(cmd(dir, "--material blue --light fixed:0,-1,-1 --out " +
+                                    (dir / "blue/%05d.png") + " --report " + (dir / "r.yml")));
     ASSERT_EQ(r.code, 0) << r.output;
+    // --report: the run's PipelineReport.
+    cv::FileStorage rep(dir / "r.yml", cv::FileStorage::READ);
+    ASSERT_TRUE(rep.isOpened());
+    EXPECT_EQ((std::string)rep["pipeline"], "material-edit");
+    EXPECT_EQ((int)rep["frames_processed"], 4);
+    EXPECT_EQ((int)rep["frames_total"], 4);
+    EXPECT_FALSE(rep["seconds"]["rendering"].empty());
+    EXPECT_GT((double)rep["figures"]["pixels_temporal"], 0);
     // In the ball of frame 0 (centre (30, 50), radius 14): red dominates in the file's edit,
     // blue in the preset's.
     const cv::Mat red = cv::imread(dir / "red/00000.png"),

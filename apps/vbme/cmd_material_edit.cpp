@@ -80,6 +80,7 @@ struct MaterialEditOptions {
     std::string inpaint = "background";
     std::string shadows = "keep";
     std::string response = "srgb";
+    std::string report;
     CommonOptions common;
 };
 
@@ -126,6 +127,9 @@ void setupMaterialEdit(CLI::App& app) {
         ->check(CLI::IsMember({"srgb", "gamma2.2", "linear"}));
     app.add_option("--samples", p.samples, "Samples per pixel for rough lobes")
         ->check(CLI::Range(1, 4096));
+    app.add_option("--report", opt->report,
+                   "Write the run's report (seconds per stage, frame counts, hole pixels filled "
+                   "from other frames and by exemplars) as YAML or JSON");
     addVideoOutputOptions(app, p.encode);
     addCommonOptions(app, opt->common);
     app.callback([opt] {
@@ -141,6 +145,7 @@ void setupMaterialEdit(CLI::App& app) {
                                             : cv::vbme::MATERIAL_EDIT_INPAINT_BACKGROUND;
         p.shadows = cv::vbme::parseShadowMode(opt->shadows);
         p.response = cv::vbme::parseResponse(opt->response);
+        if (!opt->report.empty()) cv::vbme::checkOverwrite(opt->report, p.force);
         std::unique_ptr<cv::vbme::Progress> bar;
         const cv::vbme::PipelineReport r =
             cv::vbme::runMaterialEdit(p, [&bar](const std::string& stage, int64 done, int64 total) {
@@ -148,6 +153,7 @@ void setupMaterialEdit(CLI::App& app) {
                 bar->set(done);
             });
         if (bar) bar->finish();
+        if (!opt->report.empty()) r.save(opt->report);
         if (!opt->common.quiet) r.print(std::cerr);
     });
 }
