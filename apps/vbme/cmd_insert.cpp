@@ -60,6 +60,9 @@ void runInsert(InsertOptions& o) {
     using namespace cv::vbme;
     o.p.force = o.common.force;
     o.p.command_line = commandLine();
+    // The command owns its process: OpenCV's own loops (texture accumulation, resizing) honour
+    // --threads too; the library limits only the work it starts (runLimited()).
+    if (o.p.threads > 0) cv::setNumThreads(o.p.threads);
     if (!o.common.quiet) {
         const Scene scene = Scene::read(o.p.scene);
         for (const std::string& w : scene.warnings())

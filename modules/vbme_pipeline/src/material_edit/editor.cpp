@@ -47,7 +47,7 @@ public:
         : p_(checked(p)), env_(env), fill_(p_) {
         const Mat mask = checkedFirstMask(first_mask);
         size_ = mask.size();
-        focal_ = p_.focal > 0 ? p_.focal : focalFromFov(size_.width, 60.0);
+        focal_ = p_.focal > 0 ? p_.focal : Camera::focalFromFov(size_.width, 60.0);
         track_.reset(new ObjectTrack(mask, p_.max_lost));
         report_.pipeline = "material-edit";
         for (int s = 0; s < NSTAGES; s++)
