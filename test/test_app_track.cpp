@@ -48,12 +48,21 @@ std::string slurp(const std::string& path) {
 
 }  // namespace
 
-TEST(AppTrack, HelpDocumentsEveryOption) {
-    const auto r = vbme_test::run(kVbme + " track --help");
-    EXPECT_EQ(r.code, 0);
-    for (const char* opt : {"--video", "--mask", "--out", "--overlay", "--params", "--threshold", "--update-rate",
-                            "--no-window", "--no-neutral-highlights", "--force", "--quiet"})
-        EXPECT_NE(r.output.find(opt), std::string::npos) << opt;
+// --help is true and takes precedence: on a command line that works (the control below runs
+// it and gets its outputs), adding --help prints the usage, exits 0 and does none of the work.
+TEST(AppTrack, HelpTakesPrecedenceAndDoesNoWork) {
+    vbme_test::ScratchDir dir;
+    Clip c(dir, 2);
+    const std::string out = dir / "out";
+    const std::string cmd =
+        kVbme + " track --video " + c.frames + " --mask " + c.mask + " --out " + out + " --quiet";
+    const auto h = vbme_test::run(cmd + " --help");
+    EXPECT_EQ(h.code, 0) << h.output;
+    EXPECT_NE(h.output.find("Usage:"), std::string::npos) << h.output;
+    EXPECT_FALSE(fs::exists(out)) << "--help wrote outputs";
+    const auto r = vbme_test::run(cmd);  // control: the same line without --help does the work
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_TRUE(fs::exists(out + "/track.csv"));
 }
 
 TEST(AppTrack, UsageErrorsExitTwo) {

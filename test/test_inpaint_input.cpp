@@ -122,8 +122,9 @@ TEST(InpaintInput, InvalidParamsAreRejected) {
               std::string::npos);
     VideoInpainter::Params v;
     v.temporal_radius = -1;
-    EXPECT_NE(errorOf([&] { VideoInpainter::create(v); }).find("temporal_radius >= 0"),
-              std::string::npos);
+    EXPECT_NE(
+        errorOf([&] { VideoInpainter::create(v); }).find("temporal_radius = -1: expected >= 0"),
+        std::string::npos);
 }
 
 TEST(InpaintInput, VideoRejectsFrameSizeChangeAndBadMask) {

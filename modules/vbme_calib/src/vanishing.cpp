@@ -11,6 +11,7 @@
 #include "lm.hpp"
 #include "manhattan.hpp"
 #include "opencv2/vbme/calib/frame_calibration.hpp"
+#include "opencv2/vbme/core/params.hpp"
 
 namespace cv {
 namespace vbme {
@@ -364,27 +365,23 @@ void placeCamera(Camera& camera, double height) {
 VanishingPointCalibrator::Params::Params() {}
 
 void VanishingPointCalibrator::Params::read(const FileNode& node) {
-    if (node.empty()) return;
-    auto rd = [&](const char* key, double& v) {
-        if (!node[key].empty()) v = (double)node[key];
-    };
-    rd("focal", focal);
-    if (!node["principal_point"].empty()) {
-        Mat p = readMatrix(node["principal_point"], 1, 2, "principal_point");
+    ParamsIn in(node, "vanishing-point parameters");
+    in("focal", focal);
+    if (const FileNode n = in.take("principal_point"); !n.empty()) {
+        Mat p = readMatrix(n, 1, 2, "principal_point");
         principal_point = Point2d(p.at<double>(0), p.at<double>(1));
     }
-    if (!node["principal_point_from_orthocenter"].empty())
-        principal_point_from_orthocenter = (int)node["principal_point_from_orthocenter"] != 0;
-    rd("min_segment_length", min_segment_length);
-    if (!node["max_segments"].empty()) max_segments = (int)node["max_segments"];
-    rd("inlier_angle_deg", inlier_angle_deg);
-    if (!node["ransac_iterations"].empty()) ransac_iterations = (int)node["ransac_iterations"];
-    rd("min_focal", min_focal);
-    rd("max_focal", max_focal);
-    if (!node["seed"].empty()) seed = (int)node["seed"];
-    rd("min_confidence", min_confidence);
-    if (!node["method"].empty()) {
-        std::string m = (std::string)node["method"];
+    in("principal_point_from_orthocenter", principal_point_from_orthocenter);
+    in("min_segment_length", min_segment_length);
+    in("max_segments", max_segments);
+    in("inlier_angle_deg", inlier_angle_deg);
+    in("ransac_iterations", ransac_iterations);
+    in("min_focal", min_focal);
+    in("max_focal", max_focal);
+    in("seed", seed);
+    in("min_confidence", min_confidence);
+    if (const FileNode n = in.take("method"); !n.empty()) {
+        std::string m = n.isString() ? (std::string)n : std::string();
         std::transform(m.begin(), m.end(), m.begin(),
                        [](unsigned char c) { return std::tolower(c); });
         if (m == "global")
@@ -395,10 +392,30 @@ void VanishingPointCalibrator::Params::read(const FileNode& node) {
             CV_Error(Error::StsBadArg,
                      "method: unknown detection method '" + m + "' (expected global or ransac)");
     }
-    rd("focal_prior", focal_prior);
-    rd("focal_prior_sigma", focal_prior_sigma);
-    if (!node["estimate_distortion"].empty())
-        estimate_distortion = (int)node["estimate_distortion"] != 0;
+    in("focal_prior", focal_prior);
+    in("focal_prior_sigma", focal_prior_sigma);
+    in("estimate_distortion", estimate_distortion);
+    in.finish();
+    check();
+}
+
+void VanishingPointCalibrator::Params::check() const {
+    const char* w = "vanishing-point parameters";
+    checkParam(focal >= 0 && std::isfinite(focal), w, "focal", focal, ">= 0 pixels (0: estimate)");
+    checkParam(min_segment_length >= 0, w, "min_segment_length", min_segment_length,
+               ">= 0 pixels (0: 3 % of the diagonal)");
+    checkParam(max_segments >= 3, w, "max_segments", max_segments, ">= 3");
+    checkParam(inlier_angle_deg > 0 && inlier_angle_deg < 90, w, "inlier_angle_deg",
+               inlier_angle_deg, "(0, 90) degrees");
+    checkParam(ransac_iterations >= 1, w, "ransac_iterations", ransac_iterations, ">= 1");
+    checkParam(min_focal > 0, w, "min_focal", min_focal, "> 0 (units of max(width, height))");
+    checkParam(max_focal > min_focal, w, "max_focal", max_focal, "> min_focal");
+    checkParam(min_confidence >= 0 && min_confidence <= 1, w, "min_confidence", min_confidence,
+               "[0, 1]");
+    checkParam(method == GLOBAL || method == RANSAC, w, "method", method,
+               "GLOBAL (0) or RANSAC (1)");
+    checkParam(focal_prior >= 0, w, "focal_prior", focal_prior, ">= 0 pixels (0: none)");
+    checkParam(focal_prior_sigma > 0, w, "focal_prior_sigma", focal_prior_sigma, "> 0");
 }
 
 void VanishingPointCalibrator::Params::write(FileStorage& fs) const {

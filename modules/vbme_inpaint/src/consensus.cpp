@@ -15,6 +15,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "feature_homography.hpp"
+#include "opencv2/vbme/core/params.hpp"
 #include "opencv2/vbme/inpaint/consensus.hpp"
 #include "pushed_frame.hpp"
 
@@ -37,39 +38,58 @@ std::string toString(ShadowMode m) {
 ConsensusInpainter::Params::Params() = default;
 
 void ConsensusInpainter::Params::read(const FileNode& node) {
-    if (!node["exemplar"].empty()) exemplar.read(node["exemplar"]);
-    auto rd = [&](const char* k, auto& v) {
-        if (!node[k].empty()) {
-            using T = std::decay_t<decltype(v)>;
-            if constexpr (std::is_same<T, bool>::value)
-                v = (int)node[k] != 0;
-            else if constexpr (std::is_same<T, int>::value)
-                v = (int)node[k];
-            else
-                v = (double)node[k];
-        }
-    };
-    rd("temporal_radius", temporal_radius);
-    rd("motion_factor", motion_factor);
-    rd("min_radius", min_radius);
-    rd("max_radius", max_radius);
-    rd("alignment", alignment);
-    rd("features", features);
-    rd("local_reach", local_reach);
-    rd("identity_tolerance", identity_tolerance);
-    rd("max_ring_error", max_ring_error);
-    rd("ring_sigma", ring_sigma);
-    rd("temporal_sigma", temporal_sigma);
-    rd("hole_margin", hole_margin);
-    rd("shadow_reach", shadow_reach);
-    rd("shadow_threshold", shadow_threshold);
-    rd("zone_weight", zone_weight);
-    rd("inlier_distance", inlier_distance);
-    rd("shadows", shadows);
-    rd("shadow_min_area", shadow_min_area);
-    rd("shadow_smooth", shadow_smooth);
-    rd("shadow_relight", shadow_relight);
-    rd("reuse_previous", reuse_previous);
+    ParamsIn in(node, "consensus parameters");
+    in("exemplar", exemplar);
+    in("temporal_radius", temporal_radius);
+    in("motion_factor", motion_factor);
+    in("min_radius", min_radius);
+    in("max_radius", max_radius);
+    in("alignment", alignment);
+    in("features", features);
+    in("local_reach", local_reach);
+    in("identity_tolerance", identity_tolerance);
+    in("max_ring_error", max_ring_error);
+    in("ring_sigma", ring_sigma);
+    in("temporal_sigma", temporal_sigma);
+    in("hole_margin", hole_margin);
+    in("shadow_reach", shadow_reach);
+    in("shadow_threshold", shadow_threshold);
+    in("zone_weight", zone_weight);
+    in("inlier_distance", inlier_distance);
+    in("shadows", shadows);
+    in("shadow_min_area", shadow_min_area);
+    in("shadow_smooth", shadow_smooth);
+    in("shadow_relight", shadow_relight);
+    in("reuse_previous", reuse_previous);
+    in.finish();
+    check();
+}
+
+void ConsensusInpainter::Params::check() const {
+    const char* w = "consensus parameters";
+    exemplar.check();
+    checkParam(temporal_radius >= 0, w, "temporal_radius", temporal_radius, ">= 0 (0: automatic)");
+    checkParam(motion_factor > 0, w, "motion_factor", motion_factor, "> 0");
+    checkParam(min_radius >= 1, w, "min_radius", min_radius, ">= 1");
+    checkParam(max_radius >= min_radius, w, "max_radius", max_radius, ">= min_radius");
+    checkParam(alignment >= CONSENSUS_ALIGN_NONE && alignment <= CONSENSUS_ALIGN_FLOW, w,
+               "alignment", alignment, "a ConsensusAlignment (none 0, homography 1, flow 2)");
+    checkParam(features >= 0, w, "features", features, ">= 0");
+    checkParam(local_reach > 0, w, "local_reach", local_reach, "> 0");
+    checkParam(identity_tolerance >= 0, w, "identity_tolerance", identity_tolerance, ">= 0");
+    checkParam(max_ring_error >= 0, w, "max_ring_error", max_ring_error, ">= 0");
+    checkParam(ring_sigma > 0, w, "ring_sigma", ring_sigma, "> 0");
+    checkParam(temporal_sigma > 0, w, "temporal_sigma", temporal_sigma, "> 0");
+    checkParam(hole_margin >= 0, w, "hole_margin", hole_margin, ">= 0");
+    checkParam(shadow_reach > 0, w, "shadow_reach", shadow_reach, "> 0");
+    checkParam(shadow_threshold > 0 && shadow_threshold < 1, w, "shadow_threshold",
+               shadow_threshold, "(0, 1)");
+    checkParam(zone_weight > 0 && zone_weight <= 1, w, "zone_weight", zone_weight, "(0, 1]");
+    checkParam(inlier_distance > 0, w, "inlier_distance", inlier_distance, "> 0");
+    checkParam(shadows == SHADOWS_KEEP || shadows == SHADOWS_REMOVE, w, "shadows", shadows,
+               "SHADOWS_KEEP (0) or SHADOWS_REMOVE (1)");
+    checkParam(shadow_min_area >= 0, w, "shadow_min_area", shadow_min_area, ">= 0");
+    checkParam(shadow_smooth > 0, w, "shadow_smooth", shadow_smooth, "> 0 pixels");
 }
 
 void ConsensusInpainter::Params::write(FileStorage& fs) const {
@@ -733,23 +753,7 @@ private:
 }  // namespace
 
 Ptr<ConsensusInpainter> ConsensusInpainter::create(const Params& p) {
-    if (p.temporal_radius < 0 || p.min_radius < 1 || p.max_radius < p.min_radius ||
-        p.motion_factor <= 0 || p.alignment < CONSENSUS_ALIGN_NONE ||
-        p.alignment > CONSENSUS_ALIGN_FLOW || p.features < 0 || p.local_reach <= 0 ||
-        p.identity_tolerance < 0 || p.max_ring_error < 0 || p.ring_sigma <= 0 ||
-        p.temporal_sigma <= 0 || p.hole_margin < 0 || p.shadow_reach <= 0 ||
-        p.shadow_threshold <= 0 || p.shadow_threshold >= 1 || p.zone_weight <= 0 ||
-        p.zone_weight > 1 || p.inlier_distance <= 0 ||
-        (p.shadows != SHADOWS_KEEP && p.shadows != SHADOWS_REMOVE) || p.shadow_min_area < 0 ||
-        p.shadow_smooth <= 0)
-        CV_Error(
-            Error::StsBadArg,
-            "ConsensusInpainter parameters out of range: expected temporal_radius >= 0, "
-            "1 <= min_radius <= max_radius, motion_factor > 0, alignment 0..2, features >= "
-            "0, local_reach > 0, identity_tolerance >= 0, max_ring_error >= 0, ring_sigma > 0, "
-            "temporal_sigma > 0, hole_margin >= 0, shadow_reach > 0, shadow_threshold in "
-            "(0, 1), zone_weight in (0, 1], inlier_distance > 0, shadows keep/remove, "
-            "shadow_min_area >= 0, shadow_smooth > 0");
+    p.check();
     return makePtr<ConsensusImpl>(p);
 }
 

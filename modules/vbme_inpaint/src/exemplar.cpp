@@ -9,6 +9,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "opencv2/vbme/core/params.hpp"
 #include "opencv2/vbme/inpaint/exemplar.hpp"
 #include "vptree.hpp"
 
@@ -41,27 +42,45 @@ std::string toString(PatchSearchMethod m) {
 ExemplarInpainter::Params::Params() = default;
 
 void ExemplarInpainter::Params::read(const FileNode& node) {
-    auto get = [&](const char* key, int& v) {
-        if (!node[key].empty()) v = (int)node[key];
-    };
-    get("patch_size", patch_size);
-    if (!node["method"].empty()) {
-        if (node["method"].isString())
-            method = parsePatchSearchMethod((std::string)node["method"]);
-        else
-            method = (int)node["method"];
-    }
-    get("color_space", color_space);
-    get("local_radius", local_radius);
-    get("pm_random_samples", pm_random_samples);
-    get("pm_search_rounds", pm_search_rounds);
-    get("pm_band_iterations", pm_band_iterations);
-    get("vp_candidates", vp_candidates);
-    get("vp_dims", vp_dims);
-    get("vp_stride", vp_stride);
-    get("vp_refine", vp_refine);
-    get("vp_max_checks", vp_max_checks);
-    if (!node["seed"].empty()) seed = (uint64)(double)node["seed"];
+    ParamsIn in(node, "exemplar parameters");
+    in("patch_size", patch_size);
+    if (const FileNode n = in.take("method"); n.isString())
+        method = parsePatchSearchMethod((std::string)n);
+    else
+        in("method", method);
+    in("color_space", color_space);
+    in("local_radius", local_radius);
+    in("pm_random_samples", pm_random_samples);
+    in("pm_search_rounds", pm_search_rounds);
+    in("pm_band_iterations", pm_band_iterations);
+    in("vp_candidates", vp_candidates);
+    in("vp_dims", vp_dims);
+    in("vp_stride", vp_stride);
+    in("vp_refine", vp_refine);
+    in("vp_max_checks", vp_max_checks);
+    in("seed", seed);
+    in.finish();
+    check();
+}
+
+void ExemplarInpainter::Params::check() const {
+    const char* w = "exemplar parameters";
+    checkParam(patch_size >= 3 && patch_size % 2 == 1, w, "patch_size", patch_size,
+               "an odd number >= 3");
+    checkParam(method == PATCH_SEARCH_PATCHMATCH || method == PATCH_SEARCH_VPTREE ||
+                   method == PATCH_SEARCH_LOCAL,
+               w, "method", method, "a PatchSearchMethod (patchmatch 0, vptree 1, local 2)");
+    checkParam(color_space == PATCH_COLOR_RGB || color_space == PATCH_COLOR_LAB, w, "color_space",
+               color_space, "PATCH_COLOR_RGB (0) or PATCH_COLOR_LAB (1)");
+    checkParam(local_radius >= 1, w, "local_radius", local_radius, ">= 1");
+    checkParam(pm_random_samples >= 1, w, "pm_random_samples", pm_random_samples, ">= 1");
+    checkParam(pm_search_rounds >= 0, w, "pm_search_rounds", pm_search_rounds, ">= 0");
+    checkParam(pm_band_iterations >= 0, w, "pm_band_iterations", pm_band_iterations, ">= 0");
+    checkParam(vp_candidates >= 1, w, "vp_candidates", vp_candidates, ">= 1");
+    checkParam(vp_dims >= 0, w, "vp_dims", vp_dims, ">= 0");
+    checkParam(vp_stride >= 1, w, "vp_stride", vp_stride, ">= 1");
+    checkParam(vp_refine >= 0, w, "vp_refine", vp_refine, ">= 0");
+    checkParam(vp_max_checks >= 0, w, "vp_max_checks", vp_max_checks, ">= 0");
 }
 
 void ExemplarInpainter::Params::write(FileStorage& fs) const {
@@ -723,25 +742,7 @@ private:
 }  // namespace
 
 Ptr<ExemplarInpainter> ExemplarInpainter::create(const Params& p) {
-    if (p.patch_size < 3 || p.patch_size % 2 == 0)
-        CV_Error(Error::StsBadArg,
-                 cv::format("patch_size is %d; expected an odd number >= 3", p.patch_size));
-    if (p.method != PATCH_SEARCH_PATCHMATCH && p.method != PATCH_SEARCH_VPTREE &&
-        p.method != PATCH_SEARCH_LOCAL)
-        CV_Error(Error::StsBadArg,
-                 cv::format("method is %d; expected a PatchSearchMethod", p.method));
-    if (p.color_space != PATCH_COLOR_RGB && p.color_space != PATCH_COLOR_LAB)
-        CV_Error(Error::StsBadArg,
-                 cv::format("color_space is %d; expected PATCH_COLOR_RGB or PATCH_COLOR_LAB",
-                            p.color_space));
-    if (p.local_radius < 1 || p.pm_random_samples < 1 || p.pm_search_rounds < 0 ||
-        p.pm_band_iterations < 0 || p.vp_candidates < 1 || p.vp_dims < 0 || p.vp_stride < 1 ||
-        p.vp_refine < 0 || p.vp_max_checks < 0)
-        CV_Error(
-            Error::StsBadArg,
-            "search parameters out of range: expected local_radius >= 1, "
-            "pm_random_samples >= 1, pm_search_rounds >= 0, pm_band_iterations >= 0, "
-            "vp_candidates >= 1, vp_dims >= 0, vp_stride >= 1, vp_refine >= 0, vp_max_checks >= 0");
+    p.check();
     return makePtr<ExemplarInpainterImpl>(p);
 }
 

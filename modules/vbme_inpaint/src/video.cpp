@@ -11,6 +11,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "feature_homography.hpp"
+#include "opencv2/vbme/core/params.hpp"
 #include "opencv2/vbme/inpaint/video.hpp"
 #include "pushed_frame.hpp"
 
@@ -20,16 +21,29 @@ namespace vbme {
 VideoInpainter::Params::Params() = default;
 
 void VideoInpainter::Params::read(const FileNode& node) {
-    if (!node["exemplar"].empty()) exemplar.read(node["exemplar"]);
-    if (!node["temporal_radius"].empty()) temporal_radius = (int)node["temporal_radius"];
-    if (!node["max_ring_error"].empty()) max_ring_error = (double)node["max_ring_error"];
-    if (!node["ring_width"].empty()) ring_width = (int)node["ring_width"];
-    if (!node["identity_tolerance"].empty())
-        identity_tolerance = (double)node["identity_tolerance"];
-    if (!node["hole_margin"].empty()) hole_margin = (int)node["hole_margin"];
-    if (!node["reuse_previous"].empty()) reuse_previous = (int)node["reuse_previous"] != 0;
-    if (!node["features"].empty()) features = (int)node["features"];
-    if (!node["refine_alignment"].empty()) refine_alignment = (int)node["refine_alignment"] != 0;
+    ParamsIn in(node, "video inpainter parameters");
+    in("exemplar", exemplar);
+    in("temporal_radius", temporal_radius);
+    in("max_ring_error", max_ring_error);
+    in("ring_width", ring_width);
+    in("identity_tolerance", identity_tolerance);
+    in("hole_margin", hole_margin);
+    in("reuse_previous", reuse_previous);
+    in("features", features);
+    in("refine_alignment", refine_alignment);
+    in.finish();
+    check();
+}
+
+void VideoInpainter::Params::check() const {
+    const char* w = "video inpainter parameters";
+    exemplar.check();
+    checkParam(temporal_radius >= 0, w, "temporal_radius", temporal_radius, ">= 0");
+    checkParam(max_ring_error >= 0, w, "max_ring_error", max_ring_error, ">= 0");
+    checkParam(ring_width >= 1, w, "ring_width", ring_width, ">= 1");
+    checkParam(identity_tolerance >= 0, w, "identity_tolerance", identity_tolerance, ">= 0");
+    checkParam(hole_margin >= 0, w, "hole_margin", hole_margin, ">= 0");
+    checkParam(features >= 0, w, "features", features, ">= 0");
 }
 
 void VideoInpainter::Params::write(FileStorage& fs) const {
@@ -294,12 +308,7 @@ private:
 }  // namespace
 
 Ptr<VideoInpainter> VideoInpainter::create(const Params& p) {
-    if (p.temporal_radius < 0 || p.ring_width < 1 || p.hole_margin < 0 || p.max_ring_error < 0 ||
-        p.identity_tolerance < 0 || p.features < 0)
-        CV_Error(Error::StsBadArg,
-                 "VideoInpainter parameters out of range: expected temporal_radius >= 0, "
-                 "ring_width >= 1, hole_margin >= 0, max_ring_error >= 0, identity_tolerance >= 0, "
-                 "features >= 0");
+    p.check();
     return makePtr<VideoInpainterImpl>(p);
 }
 

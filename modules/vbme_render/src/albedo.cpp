@@ -1,6 +1,7 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // Room albedo: colour Retinex and irradiance-based albedo (thesis §5.1.2).
 #include "opencv2/vbme/render/albedo.hpp"
+#include "opencv2/vbme/core/params.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -19,11 +20,26 @@ namespace vbme {
 using render_detail::lookupUV;
 
 void RetinexParams::read(const FileNode& fn) {
-    if (!fn["threshold"].empty()) threshold = (double)fn["threshold"];
-    if (!fn["max_side"].empty()) max_side = (int)fn["max_side"];
-    if (!fn["chroma_threshold"].empty()) chroma_threshold = (double)fn["chroma_threshold"];
-    if (!fn["white"].empty()) white = (double)fn["white"];
-    if (!fn["white_percentile"].empty()) white_percentile = (double)fn["white_percentile"];
+    ParamsIn in(fn, "retinex parameters");
+    in("threshold", threshold);
+    in("max_side", max_side);
+    in("chroma_threshold", chroma_threshold);
+    in("white", white);
+    in("white_percentile", white_percentile);
+    in.finish();
+    check();
+}
+
+void RetinexParams::check() const {
+    const char* w = "retinex parameters";
+    checkParam(threshold >= 0, w, "threshold", threshold, ">= 0");
+    checkParam(max_side >= 2, w, "max_side", max_side, ">= 2 pixels");
+    checkParam(std::isfinite(chroma_threshold), w, "chroma_threshold", chroma_threshold,
+               "a finite number");
+    checkParam(std::isfinite(white), w, "white", white,
+               "a finite number (<= 0: see RetinexParams)");
+    checkParam(white_percentile > 0 && white_percentile <= 100, w, "white_percentile",
+               white_percentile, "(0, 100]");
 }
 
 void RetinexParams::write(FileStorage& fs) const {
@@ -32,10 +48,20 @@ void RetinexParams::write(FileStorage& fs) const {
 }
 
 void IrradianceAlbedoParams::read(const FileNode& fn) {
-    if (!fn["grid"].empty()) grid = (int)fn["grid"];
-    if (!fn["spp"].empty()) spp = (int)fn["spp"];
-    if (!fn["iterations"].empty()) iterations = (int)fn["iterations"];
-    if (!fn["seed"].empty()) seed = (uint64)(double)fn["seed"];
+    ParamsIn in(fn, "irradiance albedo parameters");
+    in("grid", grid);
+    in("spp", spp);
+    in("iterations", iterations);
+    in("seed", seed);
+    in.finish();
+    check();
+}
+
+void IrradianceAlbedoParams::check() const {
+    const char* w = "irradiance albedo parameters";
+    checkParam(grid >= 1, w, "grid", grid, ">= 1");
+    checkParam(spp >= 1, w, "spp", spp, ">= 1");
+    checkParam(iterations >= 1, w, "iterations", iterations, ">= 1");
 }
 
 void IrradianceAlbedoParams::write(FileStorage& fs) const {

@@ -1,6 +1,7 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // Differential rendering: the two renders, the objects' coverage, the compositor, EXR layers.
 #include "opencv2/vbme/render/differential.hpp"
+#include "opencv2/vbme/core/params.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -45,9 +46,10 @@ DifferentialRenderer::~DifferentialRenderer() = default;
 DifferentialRenderer::Params::Params() = default;
 
 void DifferentialRenderer::Params::read(const FileNode& fn) {
-    if (!fn["render"].empty()) render.read(fn["render"]);
-    if (!fn["method"].empty()) {
-        const std::string s = (std::string)fn["method"];
+    ParamsIn in(fn, "differential renderer parameters");
+    in("render", render);
+    if (const FileNode n = in.take("method"); !n.empty()) {
+        const std::string s = n.isString() ? (std::string)n : std::string();
         if (s == "one_pass")
             method = ONE_PASS;
         else if (s == "two_pass")
@@ -56,11 +58,24 @@ void DifferentialRenderer::Params::read(const FileNode& fn) {
             CV_Error(Error::StsBadArg,
                      "method: unknown '" + s + "' (expected one_pass or two_pass)");
     }
-    if (!fn["independent"].empty()) independent = (int)fn["independent"] != 0;
-    if (!fn["coverage"].empty()) coverage = parseCoverage((std::string)fn["coverage"]);
-    if (!fn["coverage_supersampling"].empty())
-        coverage_supersampling = (int)fn["coverage_supersampling"];
-    if (!fn["coverage_occlusion"].empty()) coverage_occlusion = (int)fn["coverage_occlusion"] != 0;
+    in("independent", independent);
+    if (const FileNode n = in.take("coverage"); !n.empty())
+        coverage = parseCoverage((std::string)n);
+    in("coverage_supersampling", coverage_supersampling);
+    in("coverage_occlusion", coverage_occlusion);
+    in.finish();
+    check();
+}
+
+void DifferentialRenderer::Params::check() const {
+    const char* w = "differential renderer parameters";
+    render.check();
+    checkParam(method == ONE_PASS || method == TWO_PASS, w, "method", method,
+               "ONE_PASS (0) or TWO_PASS (1)");
+    checkParam(coverage == COVERAGE_PROJECTED || coverage == COVERAGE_PRIMARY_RAYS, w, "coverage",
+               coverage, "COVERAGE_PROJECTED or COVERAGE_PRIMARY_RAYS");
+    checkParam(coverage_supersampling >= 1 && coverage_supersampling <= 8, w,
+               "coverage_supersampling", coverage_supersampling, "1 … 8");
 }
 
 void DifferentialRenderer::Params::write(FileStorage& fs) const {
@@ -76,8 +91,16 @@ void DifferentialRenderer::Params::write(FileStorage& fs) const {
 }
 
 void CompositeParams::read(const FileNode& fn) {
-    if (!fn["alpha"].empty()) alpha = (float)fn["alpha"];
-    if (!fn["response"].empty()) response = parseResponse((std::string)fn["response"]);
+    ParamsIn in(fn, "composite parameters");
+    in("alpha", alpha);
+    if (const FileNode n = in.take("response"); !n.empty())
+        response = parseResponse((std::string)n);
+    in.finish();
+    check();
+}
+
+void CompositeParams::check() const {
+    checkParam(std::isfinite(alpha), "composite parameters", "alpha", alpha, "a finite number");
 }
 
 void CompositeParams::write(FileStorage& fs) const {
@@ -98,17 +121,7 @@ public:
     explicit DifferentialRendererImpl(const Params& p) { setParams(p); }
     const Params& getParams() const override { return p_; }
     void setParams(const Params& p) override {
-        if (p.method != ONE_PASS && p.method != TWO_PASS)
-            CV_Error(Error::StsBadArg, "DifferentialRenderer: method must be ONE_PASS or TWO_PASS");
-        if (p.coverage != COVERAGE_PROJECTED && p.coverage != COVERAGE_PRIMARY_RAYS)
-            CV_Error(Error::StsBadArg,
-                     "DifferentialRenderer: coverage must be COVERAGE_PROJECTED or "
-                     "COVERAGE_PRIMARY_RAYS");
-        if (p.coverage_supersampling < 1 || p.coverage_supersampling > 8)
-            CV_Error(Error::StsBadArg, cv::format("DifferentialRenderer: coverage_supersampling "
-                                                  "is %d, expected 1 … 8",
-                                                  p.coverage_supersampling));
-        Renderer::create(p.render);  // validates the render options
+        p.check();
         p_ = p;
     }
 

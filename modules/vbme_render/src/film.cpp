@@ -1,5 +1,6 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 #include "opencv2/vbme/render/film.hpp"
+#include "opencv2/vbme/core/params.hpp"
 
 #include <cmath>
 #include <filesystem>
@@ -187,10 +188,21 @@ float ExposureParams::scale() const {
 }
 
 void ExposureParams::read(const FileNode& fn) {
-    if (!fn["sensitivity"].empty()) sensitivity = (float)fn["sensitivity"];
-    if (!fn["fstop"].empty()) fstop = (float)fn["fstop"];
-    if (!fn["exposure"].empty()) exposure = (float)fn["exposure"];
-    if (!fn["gamma"].empty()) gamma = (float)fn["gamma"];
+    ParamsIn in(fn, "exposure parameters");
+    in("sensitivity", sensitivity);
+    in("fstop", fstop);
+    in("exposure", exposure);
+    in("gamma", gamma);
+    in.finish();
+    check();
+}
+
+void ExposureParams::check() const {
+    const char* w = "exposure parameters";
+    checkParam(sensitivity > 0, w, "sensitivity", sensitivity, "> 0 (ISO)");
+    checkParam(fstop > 0, w, "fstop", fstop, "> 0");
+    checkParam(exposure > 0, w, "exposure", exposure, "> 0 seconds");
+    checkParam(gamma > 0, w, "gamma", gamma, "> 0");
 }
 
 void ExposureParams::write(FileStorage& fs) const {

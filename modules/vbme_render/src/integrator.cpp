@@ -1,6 +1,7 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // Path tracer (NEE + MIS) and reference integrator, TBB over tiles, deterministic sampling.
 #include "opencv2/vbme/render/integrator.hpp"
+#include "opencv2/vbme/core/params.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
@@ -41,12 +42,13 @@ Renderer::Params Renderer::Params::fromScene(const RenderSettings& s) {
 }
 
 void Renderer::Params::read(const FileNode& fn) {
-    if (!fn["spp"].empty()) spp = (int)fn["spp"];
-    if (!fn["max_depth"].empty()) max_depth = (int)fn["max_depth"];
-    if (!fn["seed"].empty()) seed = (uint64)(double)fn["seed"];
-    if (!fn["threads"].empty()) threads = (int)fn["threads"];
-    if (!fn["integrator"].empty()) {
-        const std::string s = (std::string)fn["integrator"];
+    ParamsIn in(fn, "renderer parameters");
+    in("spp", spp);
+    in("max_depth", max_depth);
+    in("seed", seed);
+    in("threads", threads);
+    if (const FileNode n = in.take("integrator"); !n.empty()) {
+        const std::string s = n.isString() ? (std::string)n : std::string();
         if (s == "path")
             integrator = PATH;
         else if (s == "reference")
@@ -55,19 +57,43 @@ void Renderer::Params::read(const FileNode& fn) {
             CV_Error(Error::StsBadArg,
                      "integrator: unknown '" + s + "' (expected path or reference)");
     }
-    if (!fn["with_objects"].empty()) with_objects = (int)fn["with_objects"] != 0;
-    if (!fn["filter"].empty()) filter = parseFilter((std::string)fn["filter"]);
-    if (!fn["clamp"].empty()) clamp = (float)fn["clamp"];
-    if (!fn["rr_depth"].empty()) rr_depth = (int)fn["rr_depth"];
-    if (!fn["tile_size"].empty()) tile_size = (int)fn["tile_size"];
-    if (!fn["aovs"].empty()) aovs = (int)fn["aovs"] != 0;
-    if (!fn["light_selection"].empty())
-        light_selection = parseLightSelection((std::string)fn["light_selection"]);
-    if (!fn["adaptive_min_spp"].empty()) adaptive_min_spp = (int)fn["adaptive_min_spp"];
-    if (!fn["adaptive_error"].empty()) adaptive_error = (float)fn["adaptive_error"];
-    if (!fn["texture_cone"].empty()) texture_cone = (float)fn["texture_cone"];
-    if (!fn["adaptive_roulette"].empty()) adaptive_roulette = (float)fn["adaptive_roulette"];
-    if (!fn["adaptive_radius"].empty()) adaptive_radius = (int)fn["adaptive_radius"];
+    in("with_objects", with_objects);
+    if (const FileNode n = in.take("filter"); !n.empty()) filter = parseFilter((std::string)n);
+    in("clamp", clamp);
+    in("rr_depth", rr_depth);
+    in("tile_size", tile_size);
+    in("aovs", aovs);
+    if (const FileNode n = in.take("light_selection"); !n.empty())
+        light_selection = parseLightSelection((std::string)n);
+    in("adaptive_min_spp", adaptive_min_spp);
+    in("adaptive_error", adaptive_error);
+    in("texture_cone", texture_cone);
+    in("adaptive_roulette", adaptive_roulette);
+    in("adaptive_radius", adaptive_radius);
+    in.finish();
+    check();
+}
+
+void Renderer::Params::check() const {
+    const char* w = "renderer parameters";
+    checkParam(spp > 0, w, "spp", spp, "> 0");
+    checkParam(max_depth > 0, w, "max_depth", max_depth, "> 0");
+    checkParam(threads >= 0, w, "threads", threads, ">= 0 (0: all cores)");
+    checkParam(integrator == PATH || integrator == REFERENCE, w, "integrator", integrator,
+               "PATH (0) or REFERENCE (1)");
+    checkParam(filter == FILTER_BOX || filter == FILTER_GAUSSIAN, w, "filter", filter,
+               "FILTER_BOX (0) or FILTER_GAUSSIAN (1)");
+    checkParam(clamp >= 0, w, "clamp", clamp, ">= 0 (0: off)");
+    checkParam(rr_depth >= 0, w, "rr_depth", rr_depth, ">= 0");
+    checkParam(tile_size > 0, w, "tile_size", tile_size, "> 0 pixels");
+    checkParam(light_selection == LIGHTS_UNIFORM || light_selection == LIGHTS_POWER, w,
+               "light_selection", light_selection, "LIGHTS_UNIFORM (0) or LIGHTS_POWER (1)");
+    checkParam(adaptive_min_spp >= 0, w, "adaptive_min_spp", adaptive_min_spp, ">= 0 (0: off)");
+    checkParam(adaptive_error > 0, w, "adaptive_error", adaptive_error, "> 0");
+    checkParam(texture_cone >= 0, w, "texture_cone", texture_cone, ">= 0 (0: off)");
+    checkParam(adaptive_roulette >= 0 && adaptive_roulette <= 1, w, "adaptive_roulette",
+               adaptive_roulette, "[0, 1]");
+    checkParam(adaptive_radius >= 0, w, "adaptive_radius", adaptive_radius, ">= 0");
 }
 
 void Renderer::Params::write(FileStorage& fs) const {
@@ -174,24 +200,7 @@ public:
     explicit RendererImpl(const Params& p) { setParams(p); }
     const Params& getParams() const override { return p_; }
     void setParams(const Params& p) override {
-        if (p.spp <= 0) CV_Error(Error::StsBadArg, "Renderer: spp must be positive");
-        if (p.max_depth <= 0) CV_Error(Error::StsBadArg, "Renderer: max_depth must be positive");
-        if (p.tile_size <= 0) CV_Error(Error::StsBadArg, "Renderer: tile_size must be positive");
-        if (p.adaptive_min_spp < 0)
-            CV_Error(Error::StsBadArg, "Renderer: adaptive_min_spp must be ≥ 0 (0: off)");
-        if (!(p.texture_cone >= 0.f))
-            CV_Error(Error::StsBadArg, "Renderer: texture_cone must be ≥ 0 (0: off)");
-        if (p.adaptive_radius < 0)
-            CV_Error(Error::StsBadArg, "Renderer: adaptive_radius must be ≥ 0");
-        if (!(p.adaptive_roulette >= 0.f && p.adaptive_roulette <= 1.f))
-            CV_Error(Error::StsBadArg, "Renderer: adaptive_roulette must be in [0, 1]");
-        if (!(p.adaptive_error > 0.f))
-            CV_Error(Error::StsBadArg, "Renderer: adaptive_error must be positive");
-        if (p.light_selection != LIGHTS_UNIFORM && p.light_selection != LIGHTS_POWER)
-            CV_Error(Error::StsBadArg,
-                     "Renderer: light_selection must be LIGHTS_UNIFORM or LIGHTS_POWER");
-        if (p.integrator != PATH && p.integrator != REFERENCE)
-            CV_Error(Error::StsBadArg, "Renderer: integrator must be PATH or REFERENCE");
+        p.check();
         p_ = p;
     }
     RenderStats render(const RenderScene& scene, const Camera& camera, RenderImages& out,

@@ -2,6 +2,7 @@
 // Light power estimation from frames: per-light basis renders, NNLS or the thesis's hill
 // climbing (thesis §5.1.3).
 #include "opencv2/vbme/render/light_estimation.hpp"
+#include "opencv2/vbme/core/params.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -17,8 +18,9 @@ namespace cv {
 namespace vbme {
 
 void LightEstimationParams::read(const FileNode& fn) {
-    if (!fn["method"].empty()) {
-        const std::string m = (std::string)fn["method"];
+    ParamsIn in(fn, "light estimation parameters");
+    if (const FileNode n = in.take("method"); !n.empty()) {
+        const std::string m = n.isString() ? (std::string)n : std::string();
         if (m == "nnls")
             method = NNLS;
         else if (m == "hill-climb" || m == "hill_climb")
@@ -26,19 +28,29 @@ void LightEstimationParams::read(const FileNode& fn) {
         else
             CV_Error(Error::StsBadArg, "method: unknown '" + m + "' (expected nnls or hill-climb)");
     }
-    if (!fn["render_size"].empty()) {
-        const FileNode n = fn["render_size"];
-        if (!n.isSeq() || n.size() != 2)
-            CV_Error(Error::StsBadArg, "render_size: expected [width, height]");
-        render_size = Size((int)n[0], (int)n[1]);
-    }
-    if (!fn["spp"].empty()) spp = (int)fn["spp"];
-    if (!fn["max_depth"].empty()) max_depth = (int)fn["max_depth"];
-    if (!fn["max_iterations"].empty()) max_iterations = (int)fn["max_iterations"];
-    if (!fn["tolerance"].empty()) tolerance = (double)fn["tolerance"];
-    if (!fn["clip_level"].empty()) clip_level = (double)fn["clip_level"];
-    if (!fn["per_frame_gain"].empty()) per_frame_gain = (int)fn["per_frame_gain"] != 0;
-    if (!fn["seed"].empty()) seed = (uint64)(double)fn["seed"];
+    in("render_size", render_size);
+    in("spp", spp);
+    in("max_depth", max_depth);
+    in("max_iterations", max_iterations);
+    in("tolerance", tolerance);
+    in("clip_level", clip_level);
+    in("per_frame_gain", per_frame_gain);
+    in("seed", seed);
+    in.finish();
+    check();
+}
+
+void LightEstimationParams::check() const {
+    const char* w = "light estimation parameters";
+    checkParam(method == NNLS || method == HILL_CLIMB, w, "method", method,
+               "HILL_CLIMB (0) or NNLS (1)");
+    checkParam(render_size.width > 0 && render_size.height > 0, w, "render_size", render_size.width,
+               "positive [width, height]");
+    checkParam(spp > 0, w, "spp", spp, "> 0");
+    checkParam(max_depth > 0, w, "max_depth", max_depth, "> 0");
+    checkParam(max_iterations >= 0, w, "max_iterations", max_iterations, ">= 0");
+    checkParam(tolerance > 0, w, "tolerance", tolerance, "> 0");
+    checkParam(clip_level > 0 && clip_level <= 1, w, "clip_level", clip_level, "(0, 1]");
 }
 
 void LightEstimationParams::write(FileStorage& fs) const {

@@ -13,6 +13,7 @@
 #include <map>
 
 #include "opencv2/vbme/core/fileio.hpp"
+#include "opencv2/vbme/core/params.hpp"
 
 namespace cv {
 namespace vbme {
@@ -22,8 +23,18 @@ RenderScene::~RenderScene() = default;
 RenderScene::Params::Params() = default;
 
 void RenderScene::Params::read(const FileNode& fn) {
-    if (!fn["room_albedo"].empty()) room_albedo = Vec3f(readVec3(fn["room_albedo"], "room_albedo"));
-    if (!fn["room_emissive"].empty()) room_emissive = (int)fn["room_emissive"] != 0;
+    ParamsIn in(fn, "render scene parameters");
+    if (const FileNode n = in.take("room_albedo"); !n.empty())
+        room_albedo = Vec3f(readVec3(n, "room_albedo"));
+    in("room_emissive", room_emissive);
+    in.finish();
+    check();
+}
+
+void RenderScene::Params::check() const {
+    for (int c = 0; c < 3; c++)
+        checkParam(room_albedo[c] >= 0 && std::isfinite(room_albedo[c]), "render scene parameters",
+                   "room_albedo", room_albedo[c], "three finite values >= 0");
 }
 
 void RenderScene::Params::write(FileStorage& fs) const {

@@ -2,6 +2,7 @@
 // Room face textures: per-texel rectification of frames onto the room box, accumulated over
 // frames with sharpness weights (thesis §5.1.2).
 #include "opencv2/vbme/render/room_texture.hpp"
+#include "opencv2/vbme/core/params.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,10 +16,20 @@ namespace cv {
 namespace vbme {
 
 void RoomTextureParams::read(const FileNode& fn) {
-    if (!fn["texel_scale"].empty()) texel_scale = (double)fn["texel_scale"];
-    if (!fn["min_size"].empty()) min_size = (int)fn["min_size"];
-    if (!fn["max_size"].empty()) max_size = (int)fn["max_size"];
-    if (!fn["accumulate"].empty()) accumulate = (int)fn["accumulate"] != 0;
+    ParamsIn in(fn, "room texture parameters");
+    in("texel_scale", texel_scale);
+    in("min_size", min_size);
+    in("max_size", max_size);
+    in("accumulate", accumulate);
+    in.finish();
+    check();
+}
+
+void RoomTextureParams::check() const {
+    const char* w = "room texture parameters";
+    checkParam(texel_scale > 0, w, "texel_scale", texel_scale, "> 0");
+    checkParam(min_size >= 1, w, "min_size", min_size, ">= 1");
+    checkParam(max_size >= min_size, w, "max_size", max_size, ">= min_size");
 }
 
 void RoomTextureParams::write(FileStorage& fs) const {

@@ -1,5 +1,6 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 #include "opencv2/vbme/track/object_tracker.hpp"
+#include "opencv2/vbme/core/params.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -19,87 +20,67 @@ namespace vbme {
 ObjectTracker::Params::Params() = default;
 
 void ObjectTracker::Params::read(const FileNode& fn) {
-    if (!fn.isMap() && !fn.empty() && !fn.isNone())
-        CV_Error(Error::StsParseError, "tracker parameters: expected a map of name: value");
-    auto rd = [&](const char* key, auto& v) {
-        using T = std::decay_t<decltype(v)>;
-        const FileNode n = fn[key];
-        if (!n.empty()) {
-            if (!n.isInt() && !n.isReal())
-                CV_Error(Error::StsParseError,
-                         std::string("tracker parameter '") + key + "': expected a number");
-            const double d = (double)n;
-            // the conversion itself must be defined: finite and within the type's range
-            const double lo = std::is_same<T, bool>::value ? 0 : -1e9,
-                         hi = std::is_same<T, bool>::value ? 1 : 1e9;
-            if (!(d >= lo && d <= hi))
-                CV_Error(
-                    Error::StsParseError,
-                    format("tracker parameter '%s': %g is out of range [%g, %g]", key, d, lo, hi));
-            v = static_cast<T>(d);
-        }
-    };
-    rd("h_bins", h_bins);
-    rd("s_bins", s_bins);
-    rd("threshold", threshold);
-    rd("open_size", open_size);
-    rd("close_size", close_size);
-    rd("fill_holes", fill_holes);
-    rd("use_search_window", use_search_window);
-    rd("window_scale", window_scale);
-    rd("window_margin", window_margin);
-    rd("neutral_highlights", neutral_highlights);
-    rd("highlight_min_value", highlight_min_value);
-    rd("highlight_max_saturation", highlight_max_saturation);
-    rd("lost_threshold", lost_threshold);
-    rd("model_update_rate", model_update_rate);
-    rd("min_update_confidence", min_update_confidence);
-    rd("min_step", min_step);
-    rd("colour_model", colour_model);
-    rd("min_init_iou", min_init_iou);
-    rd("max_init_overlap", max_init_overlap);
-    rd("predict_motion", predict_motion);
-    rd("max_radius_change", max_radius_change);
-    rd("evidence_confidence", evidence_confidence);
-    rd("edge_refine", edge_refine);
-    rd("redetect", redetect);
-    rd("redetect_threshold", redetect_threshold);
-    validate();
+    ParamsIn in(fn, "tracker parameters");
+    in("h_bins", h_bins);
+    in("s_bins", s_bins);
+    in("threshold", threshold);
+    in("open_size", open_size);
+    in("close_size", close_size);
+    in("fill_holes", fill_holes);
+    in("use_search_window", use_search_window);
+    in("window_scale", window_scale);
+    in("window_margin", window_margin);
+    in("neutral_highlights", neutral_highlights);
+    in("highlight_min_value", highlight_min_value);
+    in("highlight_max_saturation", highlight_max_saturation);
+    in("lost_threshold", lost_threshold);
+    in("model_update_rate", model_update_rate);
+    in("min_update_confidence", min_update_confidence);
+    in("min_step", min_step);
+    in("colour_model", colour_model);
+    in("min_init_iou", min_init_iou);
+    in("max_init_overlap", max_init_overlap);
+    in("predict_motion", predict_motion);
+    in("max_radius_change", max_radius_change);
+    in("evidence_confidence", evidence_confidence);
+    in("edge_refine", edge_refine);
+    in("redetect", redetect);
+    in("redetect_threshold", redetect_threshold);
+    in.finish();
+    check();
 }
 
-void ObjectTracker::Params::validate() const {
-    if (h_bins < 1 || h_bins > 180) CV_Error(Error::StsBadArg, "h_bins: expected 1..180");
-    if (s_bins < 1 || s_bins > 256) CV_Error(Error::StsBadArg, "s_bins: expected 1..256");
-    if (!(threshold >= 0 && threshold < 1))
-        CV_Error(Error::StsBadArg, "threshold: expected [0, 1)");
-    if (open_size < 0 || open_size > 255) CV_Error(Error::StsBadArg, "open_size: expected 0..255");
-    if (close_size < 0 || close_size > 255)
-        CV_Error(Error::StsBadArg, "close_size: expected 0..255");
-    if (!(window_scale > 0 && window_scale <= 100))
-        CV_Error(Error::StsBadArg, "window_scale: expected (0, 100]");
-    if (window_margin < 0 || window_margin > 100000)
-        CV_Error(Error::StsBadArg, "window_margin: expected 0..100000 pixels");
-    if (highlight_min_value < 0 || highlight_min_value > 256)
-        CV_Error(Error::StsBadArg, "highlight_min_value: expected 0..256");
-    if (highlight_max_saturation < -1 || highlight_max_saturation > 255)
-        CV_Error(Error::StsBadArg, "highlight_max_saturation: expected -1..255");
-    if (!(lost_threshold >= 0 && lost_threshold <= 1))
-        CV_Error(Error::StsBadArg, "lost_threshold: expected [0, 1]");
-    if (!(model_update_rate >= 0 && model_update_rate <= 1))
-        CV_Error(Error::StsBadArg, "model_update_rate: expected [0, 1]");
-    if (!(min_update_confidence >= 0 && min_update_confidence <= 1))
-        CV_Error(Error::StsBadArg, "min_update_confidence: expected [0, 1]");
-    if (!(min_step > 0 && min_step <= 1)) CV_Error(Error::StsBadArg, "min_step: expected (0, 1]");
-    if (colour_model < TRACK_COLOUR_HS || colour_model > TRACK_COLOUR_GMM)
-        CV_Error(Error::StsBadArg, "colour_model: expected 0..6 (TrackColourModel)");
-    if (!(min_init_iou >= 0 && min_init_iou <= 1))
-        CV_Error(Error::StsBadArg, "min_init_iou: expected [0, 1]");
-    if (!(max_init_overlap >= 0 && max_init_overlap <= 1))
-        CV_Error(Error::StsBadArg, "max_init_overlap: expected [0, 1]");
-    if (!(max_radius_change >= 0 && max_radius_change < 1))
-        CV_Error(Error::StsBadArg, "max_radius_change: expected [0, 1)");
-    if (!(redetect_threshold >= 0 && redetect_threshold <= 1))
-        CV_Error(Error::StsBadArg, "redetect_threshold: expected [0, 1]");
+void ObjectTracker::Params::check() const {
+    const char* w = "tracker parameters";
+    checkParam(h_bins >= 1 && h_bins <= 180, w, "h_bins", h_bins, "1..180");
+    checkParam(s_bins >= 1 && s_bins <= 256, w, "s_bins", s_bins, "1..256");
+    checkParam(threshold >= 0 && threshold < 1, w, "threshold", threshold, "[0, 1)");
+    checkParam(open_size >= 0 && open_size <= 255, w, "open_size", open_size, "0..255");
+    checkParam(close_size >= 0 && close_size <= 255, w, "close_size", close_size, "0..255");
+    checkParam(window_scale > 0 && window_scale <= 100, w, "window_scale", window_scale,
+               "(0, 100]");
+    checkParam(window_margin >= 0 && window_margin <= 100000, w, "window_margin", window_margin,
+               "0..100000 pixels");
+    checkParam(highlight_min_value >= 0 && highlight_min_value <= 256, w, "highlight_min_value",
+               highlight_min_value, "0..256");
+    checkParam(highlight_max_saturation >= -1 && highlight_max_saturation <= 255, w,
+               "highlight_max_saturation", highlight_max_saturation, "-1..255");
+    checkParam(lost_threshold >= 0 && lost_threshold <= 1, w, "lost_threshold", lost_threshold,
+               "[0, 1]");
+    checkParam(model_update_rate >= 0 && model_update_rate <= 1, w, "model_update_rate",
+               model_update_rate, "[0, 1]");
+    checkParam(min_update_confidence >= 0 && min_update_confidence <= 1, w, "min_update_confidence",
+               min_update_confidence, "[0, 1]");
+    checkParam(min_step > 0 && min_step <= 1, w, "min_step", min_step, "(0, 1]");
+    checkParam(colour_model >= TRACK_COLOUR_HS && colour_model <= TRACK_COLOUR_GMM, w,
+               "colour_model", colour_model, "0..6 (TrackColourModel)");
+    checkParam(min_init_iou >= 0 && min_init_iou <= 1, w, "min_init_iou", min_init_iou, "[0, 1]");
+    checkParam(max_init_overlap >= 0 && max_init_overlap <= 1, w, "max_init_overlap",
+               max_init_overlap, "[0, 1]");
+    checkParam(max_radius_change >= 0 && max_radius_change < 1, w, "max_radius_change",
+               max_radius_change, "[0, 1)");
+    checkParam(redetect_threshold >= 0 && redetect_threshold <= 1, w, "redetect_threshold",
+               redetect_threshold, "[0, 1]");
 }
 
 ObjectTracker::Params readTrackerParamsFile(const std::string& path) {
@@ -127,6 +108,7 @@ void ObjectTracker::Params::write(FileStorage& fs) const {
        << max_init_overlap << "predict_motion" << (int)predict_motion << "max_radius_change"
        << max_radius_change << "evidence_confidence" << (int)evidence_confidence << "redetect"
        << (int)redetect << "redetect_threshold" << redetect_threshold;
+    fs << "edge_refine" << (int)edge_refine;
 }
 
 ObjectTracker::~ObjectTracker() = default;
@@ -1100,7 +1082,7 @@ private:
 }  // namespace
 
 Ptr<ObjectTracker> ObjectTracker::create(const Params& params) {
-    params.validate();
+    params.check();
     return makePtr<ObjectTrackerImpl>(params);
 }
 

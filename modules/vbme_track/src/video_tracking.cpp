@@ -72,7 +72,7 @@ private:
 TrackVideoSummary trackVideo(const std::string& video, InputArray _first_mask,
                              const std::string& out_dir, const TrackVideoOptions& opt) {
     // Everything is checked before anything is written.
-    opt.params.validate();
+    opt.params.check();
     Mat first_mask = _first_mask.getMat();
     const fs::path dir(out_dir);
     std::error_code ec;

@@ -62,6 +62,14 @@ struct CV_EXPORTS KeyframeOptions {
     int sift_features = 2048;  //!< COLMAP SIFT features per keyframe (replaces
                                //!< ColmapOptions::max_num_features for keyframe runs)
     int overlap = 6;           //!< COLMAP sequential matching overlap between keyframes
+
+    /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
+    key or a value check() refuses is an error. */
+    void read(const FileNode& fn);
+    /** @brief Writes every field as `name: value` into the open map of @p fs. */
+    void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief Options of alignment and tracking. */
@@ -85,6 +93,14 @@ struct CV_EXPORTS CameraTrackingOptions {
     double plane_tolerance = 0.05;  //!< points this close (m) to a face are tied to it
     double smooth_sigma = 0;        //!< > 0: smoothness prior on the trajectory, width in frames
     ColmapOptions colmap;           //!< how COLMAP runs
+
+    /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
+    key or a value check() refuses is an error. */
+    void read(const FileNode& fn);
+    /** @brief Writes every field as `name: value` into the open map of @p fs. */
+    void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief What the tracking did. */

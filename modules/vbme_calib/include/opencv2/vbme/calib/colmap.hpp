@@ -86,6 +86,14 @@ struct CV_EXPORTS ColmapOptions {
     int timeout = 0;          //!< seconds a step may run before it is stopped as hung (0: no limit)
     int min_model_size = 10;  //!< mapper: smaller models are discarded
     int abs_pose_min_num_inliers = 30;  //!< mapper: 2D-3D inliers needed to register an image
+
+    /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
+    key or a value check() refuses is an error. */
+    void read(const FileNode& fn);
+    /** @brief Writes every field as `name: value` into the open map of @p fs. */
+    void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief Runs COLMAP's sparse reconstruction on the images of @p image_dir

@@ -136,8 +136,8 @@ public:
             segments, every pair of candidates giving a frame (focal from orthogonality),
             then a joint robust refinement of focal length and rotation (default). */
             GLOBAL = 0,
-            /** The previous method: RANSAC over random minimal sets of LSD segments, kept for
-            comparison. */
+            /** RANSAC over random minimal sets of LSD segments: a baseline for GLOBAL (the two
+            are compared in doc/vbme_calib.md). */
             RANSAC = 1
         };
         Method method = GLOBAL;  //!< detection: the search (file value "global" / "ransac")
@@ -150,10 +150,13 @@ public:
         straightness of the lines and their meeting in the vanishing points (GLOBAL only). */
         bool estimate_distortion = false;
 
-        /** @brief Reads the fields present in @p node. */
+        /** @brief Reads the fields present in @p node (others keep their values); an
+        unknown key or a value check() refuses is an error. */
         void read(const FileNode& node);
         /** @brief Writes all fields. */
         void write(FileStorage& fs) const;
+        /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+        void check() const;
     };
 
     /** @brief Creates a calibrator. */
@@ -312,6 +315,14 @@ struct CV_EXPORTS FrameCalibrationOptions {
     annotated (a warning is printed). */
     double default_camera_height = 1.6;
     VanishingPointCalibrator::Params vp;  //!< vanishing-point settings
+
+    /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
+    key or a value check() refuses is an error. */
+    void read(const FileNode& fn);
+    /** @brief Writes every field as `name: value` into the open map of @p fs. */
+    void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief Annotation (and/or automatic detection) → scene: camera, room, lights.

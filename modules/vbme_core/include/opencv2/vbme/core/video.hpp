@@ -35,6 +35,13 @@ struct CV_EXPORTS VideoColorInfo {
     matrix, sRGB transfer (DESIGN "Colour": renders are re-encoded with the `srgb` response),
     limited range. */
     static VideoColorInfo sdrDefault();
+    /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
+    key or a value check() refuses is an error. */
+    void read(const FileNode& fn);
+    /** @brief Writes every field as `name: value` into the open map of @p fs. */
+    void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief What a VideoReader does with HDR (PQ or HLG) input. */
@@ -61,6 +68,14 @@ struct CV_EXPORTS VideoReadOptions {
     /** When true, a frame the decoder reports damaged or missing throws a cv::Exception with
     its index instead of a warning. */
     bool strict = false;
+
+    /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
+    key or a value check() refuses is an error. */
+    void read(const FileNode& fn);
+    /** @brief Writes every field as `name: value` into the open map of @p fs. */
+    void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief Reads a video file, a folder of numbered images, or a printf pattern
@@ -146,9 +161,9 @@ struct CV_EXPORTS VideoSinkOptions {
     png), or one of "h264", "h265", "prores", "ffv1" (video files) and "png" (16-bit), "exr"
     (linear half float, through the sRGB curve) for image sequences. */
     std::string codec;
-    /** Constant rate factor of h264/h265 (lower is better). 14 by default: on a noisy textured
-    test clip (test_core_video_av.cpp) CRF 14 in 4:2:0 loses 0.33 dB PSNR against the truth
-    relative to the frames written, CRF 17 0.87 dB (4:4:4 at CRF 17: 0.12 dB). */
+    /** Constant rate factor of h264/h265, 0..51 (lower is better). 14 by default, chosen so
+    that encoding loses little against the truth on noisy textured footage (figures in
+    doc/vbme_core.md, "Writing", Quality). */
     int crf = 14;
     /** x264/x265 preset. */
     std::string preset = "medium";
@@ -173,6 +188,14 @@ struct CV_EXPORTS VideoSinkOptions {
     std::string progress;
     /** Frames expected, for progress (0: unknown). */
     int64 expected_frames = 0;
+
+    /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
+    key or a value check() refuses is an error. */
+    void read(const FileNode& fn);
+    /** @brief Writes every field as `name: value` into the open map of @p fs. */
+    void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief Writes frames to a video file or to numbered images, completed atomically.

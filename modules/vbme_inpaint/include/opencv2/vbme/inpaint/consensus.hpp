@@ -139,15 +139,20 @@ public:
         /** Remove the shadow by re-lighting (divide the frame by its smoothed attenuation,
         keeping its own texture) instead of the default consensus fill (the vote of the other
         frames, feathered into the frame). Re-lighting leaves halos at sharp shadow edges
-        (contact shadows); the consensus fill measured better on the test clips. */
+        (contact shadows), which is why the consensus fill is the default (figures in
+        doc/vbme_inpaint.md, "Measured"). */
         bool shadow_relight = false;
         /** Reuse the previous output's fill where no frame sees the background. */
         bool reuse_previous = true;
 
-        /** @brief Reads the fields present in @p node (others keep their values). */
+        /** @brief Reads the fields present in @p node (others keep their values); an
+        unknown key or a value check() refuses is an error. */
         void read(const FileNode& node);
         /** @brief Writes all fields into the open map of @p fs. */
         void write(FileStorage& fs) const;
+        /** @brief Throws a cv::Exception naming the first field outside its valid range
+        (create() calls it). */
+        void check() const;
     };
 
     /** @brief What happened to one output frame. */

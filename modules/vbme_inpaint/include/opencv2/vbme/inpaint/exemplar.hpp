@@ -115,10 +115,14 @@ public:
         seed. */
         uint64 seed = 0;
 
-        /** @brief Reads the fields present in @p node (others keep their values). */
+        /** @brief Reads the fields present in @p node (others keep their values); an
+        unknown key or a value check() refuses is an error. */
         void read(const FileNode& node);
         /** @brief Writes all fields into the open map of @p fs. */
         void write(FileStorage& fs) const;
+        /** @brief Throws a cv::Exception naming the first field outside its valid range
+        (create() calls it). */
+        void check() const;
     };
 
     /** @brief Creates an inpainter. Throws cv::Exception for invalid parameters. */

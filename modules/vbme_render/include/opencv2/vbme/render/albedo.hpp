@@ -35,6 +35,8 @@ struct CV_EXPORTS RetinexParams {
     void read(const FileNode& fn);
     /** @brief Writes the fields. */
     void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief Albedo of a face texture by colour Retinex @cite Land1971 @cite Horn1974, as used by
@@ -69,6 +71,8 @@ struct CV_EXPORTS IrradianceAlbedoParams {
     void read(const FileNode& fn);
     /** @brief Writes the fields. */
     void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief Albedo of the room's faces from their observed radiance and the irradiance the

@@ -68,10 +68,13 @@ public:
         int coverage = COVERAGE_PROJECTED;  //!< CoverageMethod
         int coverage_supersampling = 8;     //!< COVERAGE_PROJECTED: n×n samples a pixel (1…8)
         bool coverage_occlusion = true;     //!< COVERAGE_PROJECTED: drop hidden sub-samples
-        /** @brief Reads the fields present in @p fn (`render` is a nested map). */
+        /** @brief Reads the fields present in @p fn (`render` is a nested map); an unknown
+        key or a value check() refuses is an error. */
         void read(const FileNode& fn);
         /** @brief Writes the fields. */
         void write(FileStorage& fs) const;
+        /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+        void check() const;
     };
 
     virtual ~DifferentialRenderer();
@@ -121,10 +124,13 @@ CV_EXPORTS uint64 frameSeed(uint64 seed, int frame, FrameSeeding mode);
 struct CV_EXPORTS CompositeParams {
     float alpha = 1.f;                   //!< scale α of the difference term (Karsch et al.)
     Response response = Response::SRGB;  //!< camera response of the background frame
-    /** @brief Reads the fields present in @p fn. */
+    /** @brief Reads the fields present in @p fn; an unknown key or a value check() refuses is
+    an error. */
     void read(const FileNode& fn);
     /** @brief Writes the fields. */
     void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief Additive differential compositing (Eq. 5.2 of the thesis, @cite Debevec1998) in

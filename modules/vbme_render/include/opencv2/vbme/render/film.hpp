@@ -86,6 +86,8 @@ struct CV_EXPORTS ExposureParams {
     void read(const FileNode& fn);
     /** @brief Writes the fields. */
     void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief An 8-bit BGR preview of a linear BGR render with ExposureParams. */

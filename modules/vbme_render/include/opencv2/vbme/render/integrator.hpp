@@ -120,10 +120,13 @@ public:
 
         /** @brief spp, max_depth and seed from a scene's render settings. */
         static Params fromScene(const RenderSettings& s);
-        /** @brief Reads the fields present in @p fn. */
+        /** @brief Reads the fields present in @p fn; an unknown key or a value check()
+        refuses is an error. */
         void read(const FileNode& fn);
         /** @brief Writes the fields. */
         void write(FileStorage& fs) const;
+        /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+        void check() const;
     };
 
     virtual ~Renderer();

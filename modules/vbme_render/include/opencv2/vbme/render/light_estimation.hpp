@@ -35,6 +35,8 @@ struct CV_EXPORTS LightEstimationParams {
     void read(const FileNode& fn);
     /** @brief Writes the fields. */
     void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief Result of estimateLights(). */
@@ -63,8 +65,8 @@ rendered per frame (vbme_render Renderer, the scene with only light i at its cur
 `spp` samples, up to `max_depth` bounces, room Lambertian with the scene's albedo textures,
 without the `objects:`), and the model of frame f is g_f · Σ_i s_i ⊙ B_i,f (per colour
 channel). Light beyond `max_depth` bounces is missing from the basis, so in a bright room the
-powers come out high (measured: +10 % on the weaker of two lights with 4 bounces against
-frames with 6; 0.7 % with 6).
+powers come out high: raise `max_depth` there (figures in doc/vbme_render_room_model.md,
+"Measured results").
 
 - **NNLS** (default): per colour channel, min_s Σ (Σ_i s_i B_i − I)² subject to s ≥ 0, solved
   exactly by the Lawson–Hanson active-set method @cite Lawson1974 on the normal equations.

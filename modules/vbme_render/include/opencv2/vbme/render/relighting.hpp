@@ -78,6 +78,14 @@ struct CV_EXPORTS LightFitParams {
     /** If true, only the strength of the dominant light is fitted, along @p fixed_to_light. */
     bool fixed_direction = false;
     Vec3f fixed_to_light = Vec3f(0, 0, -1);  //!< the fixed direction (camera coordinates)
+
+    /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
+    key or a value check() refuses is an error. */
+    void read(const FileNode& fn);
+    /** @brief Writes every field as `name: value` into the open map of @p fs. */
+    void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief Fits the lighting of a Lambertian object from its observed linear radiance.
@@ -186,6 +194,14 @@ public:
         float mirror_roughness = 0.1f;
         float sharp_pdf = 8.f;  //!< samples with a pdf above this (1/sr) read the image
         Matx33f world_from_camera = Matx33f::eye();  //!< rotation camera → environment world
+
+        /** @brief Reads the fields present in the map @p fn (others keep their value); an
+        unknown key or a value check() refuses is an error. */
+        void read(const FileNode& fn);
+        /** @brief Writes every field as `name: value` into the open map of @p fs. */
+        void write(FileStorage& fs) const;
+        /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+        void check() const;
     };
     /** @param m material. @param env environment (may be null when @p sh is given; must
     outlive the shader). @param sh low-frequency lighting or null. @param refraction sphere

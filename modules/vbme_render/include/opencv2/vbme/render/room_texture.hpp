@@ -32,6 +32,8 @@ struct CV_EXPORTS RoomTextureParams {
     void read(const FileNode& fn);
     /** @brief Writes the fields. */
     void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief The texture size of room face @p face for frames like @p camera's.

@@ -66,10 +66,13 @@ public:
         Params();                                     //!< Defaults as below.
         Vec3f room_albedo = Vec3f(0.8f, 0.8f, 0.8f);  //!< albedo of untextured room faces
         bool room_emissive = false;  //!< room textures are radiance (emitters), not albedo
-        /** @brief Reads the fields present in @p fn. */
+        /** @brief Reads the fields present in @p fn; an unknown key or a value check()
+        refuses is an error. */
         void read(const FileNode& fn);
         /** @brief Writes the fields. */
         void write(FileStorage& fs) const;
+        /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+        void check() const;
     };
 
     virtual ~RenderScene();

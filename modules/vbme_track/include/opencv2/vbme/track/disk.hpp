@@ -46,6 +46,14 @@ struct CV_EXPORTS DiskFitParams {
     int max_iterations = 10000;  //!< safety bound on moves
     float min_radius = 2.f;      //!< smallest radius considered
     float max_radius = 0.f;      //!< largest radius considered; 0 = no bound
+
+    /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
+    key or a value check() refuses is an error. */
+    void read(const FileNode& fn);
+    /** @brief Writes every field as `name: value` into the open map of @p fs. */
+    void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief Fits a disk to a mask by hill climbing on the quality of Eq. 4.6.

@@ -117,7 +117,7 @@ public:
         bool predict_motion = true;       //!< constant-velocity prediction places the window
         float max_radius_change = 0.15f;  //!< bound on |Δr|/r per frame (0 = no bound)
         /** Confidence from colour and shape evidence (fill, surroundings, rim edges, motion);
-        false: the thesis-era IoU of the disk with the cleaned object pixels. */
+        false: the thesis's IoU of the disk with the cleaned object pixels. */
         bool evidence_confidence = true;
         /** Move the colour-fitted disk onto the ball's silhouette: a robust circle through the
         strongest colour edges along rays from its centre (kept when most rays agree). */
@@ -126,10 +126,12 @@ public:
         float redetect_threshold = 0.6f;  //!< confidence needed to resume after a loss
 
         /** @brief Reads the fields present in @p fn (others keep their value), then
-        validate()s. */
+        check()s; an unknown key is an error. */
         void read(const FileNode& fn);
         /** @brief Throws cv::Exception naming the first field out of its range. */
-        void validate() const;
+        void check() const;
+        /** @deprecated Use check(). */
+        void validate() const { check(); }
         /** @brief Writes every field. */
         void write(FileStorage& fs) const;
     };

@@ -30,6 +30,14 @@ struct CV_EXPORTS TrackVideoOptions {
     audio are added (cv::vbme::sinkOptionsFrom). */
     VideoSinkOptions overlay_encode;
     bool force = false;  //!< replace existing outputs
+
+    /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
+    key or a value check() refuses is an error. */
+    void read(const FileNode& fn);
+    /** @brief Writes every field as `name: value` into the open map of @p fs. */
+    void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief What trackVideo() did. */
