@@ -378,7 +378,7 @@ TEST(RenderDifferential, ExrLayersRoundTrip) {
     writeDifferentialExr(dir / "d.exr", im, comp, {{"vbme.seed", "4"}});
     Mat comp2;
     std::map<std::string, std::string> attr;
-    const DifferentialImages r = readDifferentialExr(dir / "d.exr", &comp2, &attr);
+    const DifferentialImages r = readDifferentialExr(dir / "d.exr", comp2, &attr);
     EXPECT_EQ(norm(r.obj, im.obj, NORM_INF), 0.0);
     EXPECT_EQ(norm(r.noobj, im.noobj, NORM_INF), 0.0);
     EXPECT_EQ(norm(r.diff, im.diff, NORM_INF), 0.0);

@@ -188,7 +188,7 @@ TEST(RenderRelighting, MirrorReflectionPosition) {
         ip.world_from_camera = cam_from_world.t();
         ImageShader shader(m, &env, nullptr, nullptr, ip);
         Mat bg(size, CV_32FC3, Scalar::all(0)), out, shaded;
-        renderSphere(bg, c, r, 1e6, shader, out, &shaded);  // focal 1e6: wo = (0, 0, −1)
+        renderSphere(bg, c, r, 1e6, shader, out, shaded);  // focal 1e6: wo = (0, 0, −1)
         Mat lum;
         cvtColor(shaded, lum, COLOR_BGR2GRAY);
         Point peak;
@@ -234,7 +234,7 @@ TEST(RenderRelighting, GlassInvertsBackground) {
     ImageShader::Params ip;
     ImageShader shader(Material::preset("glass"), &env, nullptr, &refr, ip);
     Mat out, shaded;
-    renderSphere(bg, c, r, focal, shader, out, &shaded);
+    renderSphere(bg, c, r, focal, shader, out, shaded);
     double left = 0, right = 0, sx = 0;
     for (int y = 0; y < size.height; y++)
         for (int x = 0; x < size.width; x++) {

@@ -61,7 +61,9 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
-std::vector<int> selectKeyframes(const std::vector<Mat>& gray, const KeyframeOptions& o) {
+std::vector<int> selectKeyframes(InputArrayOfArrays gray_, const KeyframeOptions& o) {
+    std::vector<Mat> gray;
+    gray_.getMatVector(gray);
     const int n = (int)gray.size();
     std::vector<int> keys;
     if (n == 0) return keys;
@@ -203,9 +205,11 @@ std::string frameName(int i) {
 
 }  // namespace
 
-CameraPath trackCameraKeyframes(const std::vector<Mat>& gray, const Scene& frame0,
+CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
                                 const std::string& work_dir, const CameraTrackingOptions& opt,
                                 CameraTrackingReport* report) {
+    std::vector<Mat> gray;
+    gray_.getMatVector(gray);
     ScopedTimer total;
     const int n = (int)gray.size();
     if (n == 0) CV_Error(Error::StsBadArg, "trackCameraKeyframes: no frames");

@@ -368,7 +368,7 @@ void writeDifferentialExr(const std::string& path, const DifferentialImages& im,
     writeExrChannels(path, ch, attributes);
 }
 
-DifferentialImages readDifferentialExr(const std::string& path, Mat* composite,
+DifferentialImages readDifferentialExr(const std::string& path, OutputArray composite,
                                        std::map<std::string, std::string>* attributes) {
     std::map<std::string, Mat> ch = readExrChannels(path, attributes);
     std::string missing;
@@ -393,11 +393,11 @@ DifferentialImages readDifferentialExr(const std::string& path, Mat* composite,
         subtract(im.obj, im.diff, im.noobj);
     im.mask = ch["mask"];
     if (ch.count("object")) im.object = ch["object"];
-    if (composite) {
+    if (composite.needed()) {
         if (ch.count("R") && ch.count("G") && ch.count("B"))
-            *composite = merged("");
+            merged("").copyTo(composite);
         else
-            composite->release();
+            composite.release();
     }
     return im;
 }

@@ -262,8 +262,9 @@ Vec3f EnvironmentMap::pixelToDirection(const Point2f& px) const {
 // angle between c and the viewing axis, ψ = atan2(c.y, c.x) its azimuth, and the pixel is
 // center + radius·ρ·(cos ψ, sin ψ). The hemisphere facing the camera (c.z < 0) is the mirror
 // image of the first through the image plane: c → (c.x, c.y, −c.z).
-Mat imageDiskToEnvironment(const Mat& background, Point2f center, float radius,
+Mat imageDiskToEnvironment(InputArray background_, Point2f center, float radius,
                            const Matx33f& cam_from_world, Size out_size) {
+    const Mat background = background_.getMat();
     CV_Assert(!background.empty() && background.channels() == 3 &&
               "imageDiskToEnvironment: expected a non-empty 3-channel (BGR) background image");
     CV_Assert(radius > 0.f && "imageDiskToEnvironment: the disk radius must be > 0 pixels");

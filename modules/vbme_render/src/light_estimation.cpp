@@ -151,8 +151,10 @@ struct FrameSums {
 
 }  // namespace
 
-LightEstimate estimateLights(const Scene& scene, const std::vector<Mat>& frames,
+LightEstimate estimateLights(const Scene& scene, InputArrayOfArrays frames_,
                              const std::vector<Camera>& cameras, const LightEstimationParams& p) {
+    std::vector<Mat> frames;
+    frames_.getMatVector(frames);
     if (frames.empty() || frames.size() != cameras.size())
         CV_Error(Error::StsBadArg,
                  "estimateLights: expected one camera per frame, at least one frame");

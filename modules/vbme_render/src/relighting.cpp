@@ -356,20 +356,96 @@ LightingFit fitLighting(InputArray linear_, InputArray normals_, InputArray mask
 
 Shader::~Shader() {}
 
+// The shaders' state lives here, out of the public header: each public shader holds a
+// Ptr<Impl> and forwards to it.
+
+class LightShader::Impl {
+public:
+    Impl(const Material& m, const Vec3f& to_light, const Vec3f& irradiance);
+    Vec3f shade(const ShadingPoint& p) const;
+
+private:
+    Ptr<Bsdf> bsdf_;
+    Vec3f diffuse_, dir_, E_;
+};
+
+class AreaLightShader::Impl {
+public:
+    Impl(const Material& m, const Vec3f& to_light, const Vec3f& irradiance, float half_angle,
+         int samples);
+    Vec3f shade(const ShadingPoint& p) const;
+
+private:
+    Ptr<Bsdf> bsdf_;
+    Vec3f diffuse_, dir_, L_;
+    float cos_max_, solid_angle_;
+    int samples_;
+    float ior_;
+    bool spec_only_ = false;
+    float cos_lobe_ = -1.f;
+    float cos_mis_ = -2.f;
+};
+
+class ImageShader::Impl {
+public:
+    Impl(const Material& m, const EnvironmentMap* env, const SHLighting* sh,
+         const SphereRefraction* refraction, const Params& params);
+    Vec3f shade(const ShadingPoint& p) const;
+    Vec3f environment(const Vec3f& d) const;
+
+private:
+    Vec3f refracted(const ShadingPoint& p, const Vec3f& wi_in) const;
+    Material m_;
+    Ptr<Bsdf> bsdf_;
+    Vec3f diffuse_;
+    const EnvironmentMap* env_;
+    const SHLighting* sh_;
+    const SphereRefraction* refr_;
+    Params p_;
+    int nsamples_ = 1;
+};
+
 LightShader::LightShader(const Material& m, const Vec3f& to_light, const Vec3f& irradiance)
+    : impl_(makePtr<Impl>(m, to_light, irradiance)) {}
+
+Vec3f LightShader::shade(const ShadingPoint& p) const {
+    return impl_->shade(p);
+}
+
+AreaLightShader::AreaLightShader(const Material& m, const Vec3f& to_light, const Vec3f& irradiance,
+                                 float half_angle, int samples)
+    : impl_(makePtr<Impl>(m, to_light, irradiance, half_angle, samples)) {}
+
+Vec3f AreaLightShader::shade(const ShadingPoint& p) const {
+    return impl_->shade(p);
+}
+
+ImageShader::ImageShader(const Material& m, const EnvironmentMap* env, const SHLighting* sh,
+                         const SphereRefraction* refraction, const Params& params)
+    : impl_(makePtr<Impl>(m, env, sh, refraction, params)) {}
+
+Vec3f ImageShader::shade(const ShadingPoint& p) const {
+    return impl_->shade(p);
+}
+
+Vec3f ImageShader::environment(const Vec3f& d) const {
+    return impl_->environment(d);
+}
+
+LightShader::Impl::Impl(const Material& m, const Vec3f& to_light, const Vec3f& irradiance)
     : bsdf_(Bsdf::create(m)), dir_(normalized(to_light)), E_(irradiance) {
     diffuse_ = bsdf_->defaultDiffuse();
 }
 
-Vec3f LightShader::shade(const ShadingPoint& p) const {
+Vec3f LightShader::Impl::shade(const ShadingPoint& p) const {
     const sampling::Frame F(p.n);
     const Vec3f wo = F.toLocal(p.wo), wi = F.toLocal(dir_);
     if (wi[2] * wo[2] <= 0.f) return Vec3f(0, 0, 0);
     return mul(bsdf_->eval(wo, wi, diffuse_), E_) * std::abs(wi[2]);
 }
 
-AreaLightShader::AreaLightShader(const Material& m, const Vec3f& to_light, const Vec3f& irradiance,
-                                 float half_angle, int samples)
+AreaLightShader::Impl::Impl(const Material& m, const Vec3f& to_light, const Vec3f& irradiance,
+                            float half_angle, int samples)
     : bsdf_(Bsdf::create(m)),
       dir_(normalized(to_light)),
       samples_(std::max(1, samples)),
@@ -404,7 +480,7 @@ inline float lightWeight(float pdf_l, float pdf_b) {
 }
 }  // namespace
 
-Vec3f AreaLightShader::shade(const ShadingPoint& p) const {
+Vec3f AreaLightShader::Impl::shade(const ShadingPoint& p) const {
     static const SobolSampler sampler(0x5eed);
     const uint64 key = sampler.pixelKey(Point(cvRound(p.pixel.x * 4), cvRound(p.pixel.y * 4)));
     const sampling::Frame F(p.n), L(dir_);
@@ -459,8 +535,8 @@ Vec3f AreaLightShader::shade(const ShadingPoint& p) const {
     return acc / (float)samples_;
 }
 
-ImageShader::ImageShader(const Material& m, const EnvironmentMap* env, const SHLighting* sh,
-                         const SphereRefraction* refraction, const Params& params)
+ImageShader::Impl::Impl(const Material& m, const EnvironmentMap* env, const SHLighting* sh,
+                        const SphereRefraction* refraction, const Params& params)
     : m_(m), bsdf_(Bsdf::create(m)), env_(env), sh_(sh), refr_(refraction), p_(params) {
     CV_Assert((env || sh) && "ImageShader: needs an environment map or SH lighting");
     CV_Assert(p_.samples > 0 && "ImageShader: samples must be > 0");
@@ -476,12 +552,12 @@ ImageShader::ImageShader(const Material& m, const EnvironmentMap* env, const SHL
     }
 }
 
-Vec3f ImageShader::environment(const Vec3f& d) const {
+Vec3f ImageShader::Impl::environment(const Vec3f& d) const {
     if (env_) return env_->eval(normalized(p_.world_from_camera * d));
     return sh_->radiance(d);
 }
 
-Vec3f ImageShader::refracted(const ShadingPoint& p, const Vec3f& wi_in) const {
+Vec3f ImageShader::Impl::refracted(const ShadingPoint& p, const Vec3f& wi_in) const {
     // wi_in: the refracted direction inside the object at the entry point.
     if (!refr_ || refr_->background.empty() || refr_->radius <= 0 || refr_->focal <= 0)
         return environment(wi_in);
@@ -514,7 +590,7 @@ Vec3f ImageShader::refracted(const ShadingPoint& p, const Vec3f& wi_in) const {
     return environment(e) * weight;
 }
 
-Vec3f ImageShader::shade(const ShadingPoint& p) const {
+Vec3f ImageShader::Impl::shade(const ShadingPoint& p) const {
     if (m_.type == Material::LAMBERTIAN && sh_)
         return mul(rgbOf(m_.albedo), sh_->irradiance(p.n)) * (1.f / kPi);
     if (m_.type == Material::DIELECTRIC) {
@@ -582,15 +658,21 @@ float diskCoverage(float x, float y, Point2f center, float radius) {
     return std::min(1.f, std::max(0.f, radius - std::sqrt(dx * dx + dy * dy) + 0.5f));
 }
 
-void renderSphere(const Mat& background, Point2f center, float radius, double focal,
-                  const Shader& shader, Mat& out, Mat* shaded) {
+void renderSphere(InputArray background_, Point2f center, float radius, double focal,
+                  const Shader& shader, OutputArray out_, OutputArray shaded_) {
+    const Mat background = background_.getMat();
     CV_Assert(background.type() == CV_32FC3 &&
               "renderSphere: expected a linear CV_32FC3 background");
     CV_Assert(radius > 0 && focal > 0 && "renderSphere: radius and focal must be > 0");
+    out_.create(background.size(), CV_32FC3);  // keeps the data when out is background itself
+    Mat out = out_.getMat();
     if (out.data != background.data) background.copyTo(out);
-    if (shaded) {
-        shaded->create(background.size(), CV_32FC3);
-        shaded->setTo(Scalar::all(0));
+    Mat shaded_mat, *shaded = nullptr;
+    if (shaded_.needed()) {
+        shaded_.create(background.size(), CV_32FC3);
+        shaded_mat = shaded_.getMat();
+        shaded_mat.setTo(Scalar::all(0));
+        shaded = &shaded_mat;
     }
     const Rect box = Rect(Point(cvFloor(center.x - radius - 1), cvFloor(center.y - radius - 1)),
                           Point(cvCeil(center.x + radius + 2), cvCeil(center.y + radius + 2))) &

@@ -159,7 +159,8 @@ Ptr<Texture> Texture::createConstant(const Vec3f& rgb) {
     return makePtr<ConstantTexture>(rgb);
 }
 
-Ptr<Texture> Texture::createImage(const Mat& image_bgr, Wrap wrap) {
+Ptr<Texture> Texture::createImage(InputArray image_bgr_, Wrap wrap) {
+    const Mat image_bgr = image_bgr_.getMat();
     if (image_bgr.empty()) CV_Error(Error::StsBadArg, "Texture::createImage: empty image");
     return makePtr<ImageTexture>(image_bgr, wrap);
 }

@@ -169,7 +169,7 @@ than options.min_overlap of them survive, or options.max_gap frames after the la
 Frame 0 and the last frame are keyframes. With options.stride > 0: every stride-th frame.
 @param gray the video's frames, 8-bit single channel, all of one size.
 @return keyframe indices, increasing. */
-CV_EXPORTS std::vector<int> selectKeyframes(const std::vector<Mat>& gray,
+CV_EXPORTS std::vector<int> selectKeyframes(InputArrayOfArrays gray,
                                             const KeyframeOptions& options = KeyframeOptions());
 
 /** @brief Camera tracking of a video held in memory by keyframes: selectKeyframes(), COLMAP
@@ -183,7 +183,7 @@ pose (CameraPath::INTERPOLATED). Resumable: a finished COLMAP run on the same ke
 @p work_dir is reused.
 @param gray the video's frames, 8-bit single channel, of frame0.image_size. */
 CV_EXPORTS CameraPath
-trackCameraKeyframes(const std::vector<Mat>& gray, const Scene& frame0, const std::string& work_dir,
+trackCameraKeyframes(InputArrayOfArrays gray, const Scene& frame0, const std::string& work_dir,
                      const CameraTrackingOptions& options = CameraTrackingOptions(),
                      CameraTrackingReport* report = nullptr);
 

@@ -168,9 +168,10 @@ CV_EXPORTS void writeDifferentialExr(
 
 /** @brief Reads the layers of an EXR written by writeDifferentialExr(). Throws cv::Exception
 naming the missing channels if `obj.*`, `diff.*` or `mask` are absent (`noobj` is then
-obj − diff when absent). @p composite (if not null) receives R,G,B when present. */
+obj − diff when absent). @p composite (if given) receives R,G,B when present, else is
+released. */
 CV_EXPORTS DifferentialImages
-readDifferentialExr(const std::string& path, Mat* composite = nullptr,
+readDifferentialExr(const std::string& path, OutputArray composite = noArray(),
                     std::map<std::string, std::string>* attributes = nullptr);
 
 //! @}

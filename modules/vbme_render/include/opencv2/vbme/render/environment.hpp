@@ -74,7 +74,7 @@ front one as seen through the disk and the back one mirrored, giving an equirect
 axes, z up).
 @param out_size size of the equirectangular image to produce (e.g. 512×256).
 @return a CV_32FC3 equirectangular image usable with EnvironmentMap. */
-CV_EXPORTS Mat imageDiskToEnvironment(const Mat& background, Point2f center, float radius,
+CV_EXPORTS Mat imageDiskToEnvironment(InputArray background, Point2f center, float radius,
                                       const Matx33f& cam_from_world, Size out_size);
 
 //! @}

@@ -95,7 +95,7 @@ initial values (the scales are relative to these).
 @param cameras one camera per frame.
 @param p options.
 @return the scales, gains and fit errors. */
-CV_EXPORTS LightEstimate estimateLights(const Scene& scene, const std::vector<Mat>& frames,
+CV_EXPORTS LightEstimate estimateLights(const Scene& scene, InputArrayOfArrays frames,
                                         const std::vector<Camera>& cameras,
                                         const LightEstimationParams& p = LightEstimationParams());
 

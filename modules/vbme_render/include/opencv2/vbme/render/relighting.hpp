@@ -131,8 +131,8 @@ public:
     Vec3f shade(const ShadingPoint& p) const CV_OVERRIDE;
 
 private:
-    Ptr<Bsdf> bsdf_;
-    Vec3f diffuse_, dir_, E_;
+    class Impl;
+    Ptr<Impl> impl_;
 };
 
 /** @brief A distant light with an angular spread (a disk of half-angle @p half_angle around
@@ -150,14 +150,8 @@ public:
     Vec3f shade(const ShadingPoint& p) const CV_OVERRIDE;
 
 private:
-    Ptr<Bsdf> bsdf_;
-    Vec3f diffuse_, dir_, L_;
-    float cos_max_, solid_angle_;
-    int samples_;
-    float ior_;
-    bool spec_only_ = false;
-    float cos_lobe_ = -1.f;
-    float cos_mis_ = -2.f;
+    class Impl;
+    Ptr<Impl> impl_;
 };
 
 /** @brief Geometry for refraction through a recovered sphere (ImageShader). */
@@ -215,15 +209,8 @@ public:
     Vec3f environment(const Vec3f& d) const;
 
 private:
-    Vec3f refracted(const ShadingPoint& p, const Vec3f& wi_in) const;
-    Material m_;
-    Ptr<Bsdf> bsdf_;
-    Vec3f diffuse_;
-    const EnvironmentMap* env_;
-    const SHLighting* sh_;
-    const SphereRefraction* refr_;
-    Params p_;
-    int nsamples_ = 1;
+    class Impl;
+    Ptr<Impl> impl_;
 };
 
 /** @brief A weighted sum of shaders. */
@@ -269,8 +256,8 @@ rows of the disk's bounding box; the result is deterministic.
 @param out receives the composite (CV_32FC3); may be @p background itself unless the
 shader reads @p background (SphereRefraction), which would then see pixels already written.
 @param shaded optional: the unblended object radiance (CV_32FC3, zero outside). */
-CV_EXPORTS void renderSphere(const Mat& background, Point2f center, float radius, double focal,
-                             const Shader& shader, Mat& out, Mat* shaded = nullptr);
+CV_EXPORTS void renderSphere(InputArray background, Point2f center, float radius, double focal,
+                             const Shader& shader, OutputArray out, OutputArray shaded = noArray());
 
 /** @} */
 //! @}

@@ -51,7 +51,7 @@ public:
     /** @brief An image texture.
     @param image_bgr linear CV_32FC3 (or CV_32FC1, grey) image in BGR order.
     @param wrap how coordinates outside [0,1] are treated. */
-    static Ptr<Texture> createImage(const Mat& image_bgr, Wrap wrap = WRAP_REPEAT);
+    static Ptr<Texture> createImage(InputArray image_bgr, Wrap wrap = WRAP_REPEAT);
     /** @brief Loads an image file: 8- or 16-bit images are linearised with @p response, float
     images (.exr, .hdr, .pfm) are taken as linear. Throws cv::Exception naming @p field and the
     file if it is missing or unreadable. */
