@@ -35,19 +35,25 @@ void makeInputs(const vbme_test::ScratchDir& dir, Size scene_size) {
 
 }  // namespace
 
-// Usage errors exit 2; --help takes precedence over them (exit 0, usage printed, nothing
-// written), so that a user can always ask for help on the line that failed.
+// --help is true and does no work: on a complete command line that, run, tries COLMAP (the
+// control: here a missing program, exit 1), adding --help prints the usage and exits 0
+// without running anything. Usage errors exit 2.
 TEST(AppTrackCamera, HelpAndUsage) {
     vbme_test::ScratchDir dir;
     makeInputs(dir, Size(64, 48));
-    const std::string bad = kVbme + " track-camera --video " + (dir / "clip") + " --scene " +
-                            (dir / "scene.yml") + " --out " + (dir / "cams.yml") + " --stride 0";
-    EXPECT_EQ(vbme_test::run(bad).code, 2);  // stride must be >= 1
-    const auto h = vbme_test::run(bad + " --help");
+    const std::string cmd = kVbme + " track-camera --video " + (dir / "clip") + " --scene " +
+                            (dir / "scene.yml") + " --out " + (dir / "cams.yml") +
+                            " --colmap /nonexistent/colmap";
+    const auto r = vbme_test::run(cmd);  // control: the command runs and fails on COLMAP
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("error:"), std::string::npos) << r.output;
+    const auto h = vbme_test::run(cmd + " --help");
     EXPECT_EQ(h.code, 0) << h.output;
     EXPECT_NE(h.output.find("Usage:"), std::string::npos) << h.output;
+    EXPECT_EQ(h.output.find("error:"), std::string::npos) << "--help ran the command";
     EXPECT_FALSE(fs::exists(dir / "cams.yml"));
     EXPECT_EQ(vbme_test::run(kVbme + " track-camera --video a.mp4").code, 2);  // missing options
+    EXPECT_EQ(vbme_test::run(cmd + " --stride 0").code, 2);                    // out of range
 }
 
 TEST(AppTrackCamera, MissingColmapIsAPlainErrorAndWritesNoTrack) {
