@@ -46,9 +46,9 @@ TEST(CoreParams, ReaderTakesKnownKeysAndRefusesOthers) {
     in2("a", a);
     const std::string err = thrownBy([&] { in2.finish(); });
     EXPECT_NE(err.find("demo"), std::string::npos) << err;
-    EXPECT_NE(err.find("'spelled_wrong'"), std::string::npos) << err;
-    EXPECT_NE(err.find("'also_wrong'"), std::string::npos) << err;
-    EXPECT_NE(err.find("valid keys: a"), std::string::npos) << err;
+    EXPECT_NE(err.find("spelled_wrong"), std::string::npos) << err;
+    EXPECT_NE(err.find("also_wrong"), std::string::npos) << err;
+    EXPECT_NE(err.find("(valid: a)"), std::string::npos) << err;
 }
 
 TEST(CoreParams, ReaderRefusesWrongTypes) {

@@ -7,29 +7,10 @@
 namespace cv {
 namespace vbme {
 
-ParamsIn::ParamsIn(const FileNode& node, const char* what) : node_(node), what_(what) {
-    if (!node.empty() && !node.isNone() && !node.isMap())
-        CV_Error(Error::StsParseError, what_ + ": expected a map of name: value");
-}
+ParamsIn::ParamsIn(const FileNode& node, const char* what) : keys_(node, what) {}
 
 FileNode ParamsIn::take(const char* key) {
-    known_.emplace_back(key);
-    if (node_.empty() || !node_.isMap()) return FileNode();
-    return node_[key];
-}
-
-void ParamsIn::finish() const {
-    if (node_.empty() || !node_.isMap()) return;
-    std::string unknown;
-    for (const std::string& k : node_.keys())
-        if (std::find(known_.begin(), known_.end(), k) == known_.end())
-            unknown += (unknown.empty() ? "'" : ", '") + k + "'";
-    if (unknown.empty()) return;
-    std::string valid;
-    for (const std::string& k : known_)
-        valid += (valid.empty() ? "" : ", ") + k;
-    CV_Error(Error::StsParseError,
-             what_ + ": unknown key(s) " + unknown + " (valid keys: " + valid + ")");
+    return keys_.node(key);
 }
 
 bool ParamsIn::readBool(const char* key, const FileNode& n) const {
@@ -42,23 +23,23 @@ bool ParamsIn::readBool(const char* key, const FileNode& n) const {
         if (d == 0 || d == 1) return d != 0;
     }
     CV_Error(Error::StsParseError,
-             what_ + "." + key + ": expected a boolean (0, 1, true or false)");
+             what() + "." + key + ": expected a boolean (0, 1, true or false)");
 }
 
 double ParamsIn::readNumber(const char* key, const FileNode& n, bool whole, double lo,
                             double hi) const {
     if (!n.isInt() && !n.isReal())
-        CV_Error(Error::StsParseError, what_ + "." + key + ": expected a number");
+        CV_Error(Error::StsParseError, what() + "." + key + ": expected a number");
     const double d = (double)n;
     if (std::isnan(d) || (whole && (d != std::floor(d) || d < lo || d > hi)))
         CV_Error(Error::StsParseError,
-                 format("%s.%s: %g is not %s", what_.c_str(), key, d,
+                 format("%s.%s: %g is not %s", what().c_str(), key, d,
                         whole ? format("a whole number in [%g, %g]", lo, hi).c_str() : "a number"));
     return d;
 }
 
 std::string ParamsIn::readString(const char* key, const FileNode& n) const {
-    if (!n.isString()) CV_Error(Error::StsParseError, what_ + "." + key + ": expected a string");
+    if (!n.isString()) CV_Error(Error::StsParseError, what() + "." + key + ": expected a string");
     return (std::string)n;
 }
 
@@ -75,8 +56,8 @@ std::vector<double> ParamsIn::readNumbers(const char* key, const FileNode& n, in
             v.push_back(d);
         }
     if ((int)v.size() != count)
-        CV_Error(Error::StsParseError, format("%s.%s: expected a list of %d %s", what_.c_str(), key,
-                                              count, whole ? "integers" : "numbers"));
+        CV_Error(Error::StsParseError, format("%s.%s: expected a list of %d %s", what().c_str(),
+                                              key, count, whole ? "integers" : "numbers"));
     return v;
 }
 

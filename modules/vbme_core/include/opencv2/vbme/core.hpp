@@ -16,6 +16,7 @@ temporary name and renamed when complete, and progress reporting for long work.
 #include "opencv2/vbme/core/camera_path.hpp"
 #include "opencv2/vbme/core/fileio.hpp"
 #include "opencv2/vbme/core/metrics.hpp"
+#include "opencv2/vbme/core/params.hpp"
 #include "opencv2/vbme/core/progress.hpp"
 #include "opencv2/vbme/core/response.hpp"
 #include "opencv2/vbme/core/scene.hpp"

@@ -11,18 +11,23 @@
 
 #include <opencv2/core.hpp>
 
+#include "opencv2/vbme/core/utility.hpp"
+
 namespace cv {
 namespace vbme {
 
 //! @addtogroup vbme_core
 //! @{
 
-/** @brief Reads the fields of a params struct from a FileStorage map and refuses keys it does
-not know.
+/** @brief Reads the fields of a params struct from a FileStorage map, checking each value's
+type, and refuses keys it does not know.
 
 Every `*Params` / `*Options` struct's `read(const FileNode&)` names its fields through this
-reader; finish() then throws a cv::Exception listing the keys of the map that no field took,
-and the valid keys, so that a misspelt setting is an error instead of being silently ignored.
+reader. The keys are kept by a ParamsReader (utility.hpp), whose finish() throws a
+cv::Exception listing the keys of the map that no field took, and the valid keys, so that a
+misspelt setting is an error instead of being silently ignored. Unlike ParamsReader's plain
+conversions, a value of the wrong type is an error naming the field (a word where a number
+belongs, a fraction or an out-of-range number for an integer, 2 for a boolean).
 A missing key keeps the field's current value. An empty or none node reads nothing.
 
 Types: `bool` (0/1 or true/false), integers and enums (numbers, checked to be whole and in
@@ -59,10 +64,10 @@ public:
     FileNode take(const char* key);
 
     /** @brief Throws naming the keys of the map that were not taken, and the valid keys. */
-    void finish() const;
+    void finish() const { keys_.finish(); }
 
     /** @brief The struct's name given to the constructor. */
-    const std::string& what() const { return what_; }
+    const std::string& what() const { return keys_.what(); }
 
 private:
     template <class T>
@@ -117,9 +122,7 @@ private:
     std::vector<double> readNumbers(const char* key, const FileNode& n, int count,
                                     bool whole) const;
 
-    FileNode node_;
-    std::string what_;
-    std::vector<std::string> known_;
+    ParamsReader keys_;
 };
 
 /** @brief Throws a cv::Exception (StsBadArg) saying "<what>.<field> = <value>: expected
