@@ -34,7 +34,7 @@ double ParamsIn::readNumber(const char* key, const FileNode& n, bool whole, doub
     if (std::isnan(d) || (whole && (d != std::floor(d) || d < lo || d > hi)))
         CV_Error(Error::StsParseError,
                  format("%s.%s: %g is not %s", what().c_str(), key, d,
-                        whole ? format("a whole number in [%g, %g]", lo, hi).c_str() : "a number"));
+                        whole ? format("a whole number in [%.0f, %.0f]", lo, hi).c_str() : "a number"));
     return d;
 }
 
