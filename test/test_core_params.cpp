@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "opencv2/vbme/core/params.hpp"
+#include "opencv2/vbme/core/utility.hpp"
 #include "opencv2/vbme/core/video.hpp"
 #include "params_test_util.hpp"
 
@@ -119,4 +120,22 @@ TEST(CoreParams, VideoSinkOptionsRoundTripAndChecks) {
     bad = VideoSinkOptions();
     bad.color.range = -1;  // nested struct: named by its own field
     expectRejected(bad, "range");
+}
+
+TEST(CoreParams, ProcessOptionsRoundTripAndChecks) {
+    ProcessOptions o;
+    o.env = {"LC_ALL=C", "OMP_NUM_THREADS=1"};
+    o.working_dir = "/tmp/work";
+    o.timeout = 60;
+    o.kill_after = 2;
+    o.log_file = "run.log";
+    o.input = "yes";
+    expectRoundTrip(o);
+    expectUnknownKeyRefused<ProcessOptions>("timeout");
+    ProcessOptions bad;
+    bad.timeout = -1;
+    expectRejected(bad, "timeout");
+    bad = ProcessOptions();
+    bad.env = {"NOEQUALS"};
+    expectRejected(bad, "env");
 }

@@ -78,6 +78,14 @@ struct CV_EXPORTS ProcessOptions {
     /** @brief Bytes written to the child's standard input (then closed). Empty: the child
     reads /dev/null. */
     std::string input;
+
+    /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
+    key or a value check() refuses is an error. */
+    void read(const FileNode& fn);
+    /** @brief Writes every field as `name: value` into the open map of @p fs. */
+    void write(FileStorage& fs) const;
+    /** @brief Throws a cv::Exception naming the first field outside its valid range. */
+    void check() const;
 };
 
 /** @brief What became of a program run by runProcess(). */
