@@ -52,6 +52,24 @@ TEST(CoreParams, ReaderTakesKnownKeysAndRefusesOthers) {
     EXPECT_NE(err.find("(valid: a)"), std::string::npos) << err;
 }
 
+TEST(CoreParams, ReaderChoosesNamedValues) {
+    enum Mode { A = 0, B = 1 };
+    FileStorage fs = yaml("p: { m: Beta, n: gamma, o: 3 }\n");
+    ParamsIn in(fs["p"], "demo");
+    Mode m = A, n = A, o = A;
+    EXPECT_TRUE(in.choice("m", m, {{"alpha", A}, {"beta", B}}));  // case does not matter
+    EXPECT_EQ(m, B);
+    const std::string err = thrownBy([&] { in.choice("n", n, {{"alpha", A}, {"beta", B}}); });
+    EXPECT_NE(err.find("demo.n: unknown 'gamma' (expected alpha or beta)"), std::string::npos)
+        << err;
+    EXPECT_NE(thrownBy([&] {
+                  in.choice("o", o, {{"alpha", A}, {"beta", B}});
+              }).find("demo.o"),
+              std::string::npos);
+    EXPECT_FALSE(in.choice("absent", m, {{"alpha", A}}));
+    EXPECT_EQ(m, B);
+}
+
 TEST(CoreParams, ReaderRefusesWrongTypes) {
     FileStorage fs = yaml("p: { i: 2.5, big: 3.0e9, s: 4, n: abc, b: 2, v: [1, 2] }\n");
     ParamsIn in(fs["p"], "demo");

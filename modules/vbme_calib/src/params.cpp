@@ -103,18 +103,7 @@ void KeyframeOptions::check() const {
 
 void CameraTrackingOptions::read(const FileNode& fn) {
     ParamsIn in(fn, "camera tracking options");
-    if (const FileNode n = in.take("method"); !n.empty()) {
-        const std::string s = n.isString() ? (std::string)n : std::string();
-        if (s == "keyframes")
-            method = KEYFRAMES;
-        else if (s == "full")
-            method = FULL;
-        else
-            CV_Error(Error::StsBadArg,
-                     "camera tracking options.method: expected keyframes or "
-                     "full, got '" +
-                         s + "'");
-    }
+    in.choice("method", method, {{"keyframes", KEYFRAMES}, {"full", FULL}});
     in("keyframes", keyframes);
     in("pnp", pnp);
     in("pnp_min_inliers", pnp_min_inliers);

@@ -380,18 +380,7 @@ void VanishingPointCalibrator::Params::read(const FileNode& node) {
     in("max_focal", max_focal);
     in("seed", seed);
     in("min_confidence", min_confidence);
-    if (const FileNode n = in.take("method"); !n.empty()) {
-        std::string m = n.isString() ? (std::string)n : std::string();
-        std::transform(m.begin(), m.end(), m.begin(),
-                       [](unsigned char c) { return std::tolower(c); });
-        if (m == "global")
-            method = GLOBAL;
-        else if (m == "ransac")
-            method = RANSAC;
-        else
-            CV_Error(Error::StsBadArg,
-                     "method: unknown detection method '" + m + "' (expected global or ransac)");
-    }
+    in.choice("method", method, {{"global", GLOBAL}, {"ransac", RANSAC}});
     in("focal_prior", focal_prior);
     in("focal_prior_sigma", focal_prior_sigma);
     in("estimate_distortion", estimate_distortion);

@@ -2,6 +2,7 @@
 #include "opencv2/vbme/core/params.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 
 namespace cv {
@@ -26,15 +27,31 @@ bool ParamsIn::readBool(const char* key, const FileNode& n) const {
              what() + "." + key + ": expected a boolean (0, 1, true or false)");
 }
 
+size_t ParamsIn::pickName(const char* key, const FileNode& n,
+                          const std::vector<std::string>& valid) const {
+    std::string name = n.isString() ? (std::string)n : std::string();
+    std::transform(name.begin(), name.end(), name.begin(),
+                   [](unsigned char c) { return (char)std::tolower(c); });
+    for (size_t i = 0; i < valid.size(); i++)
+        if (name == valid[i]) return i;
+    std::string list;
+    for (size_t i = 0; i < valid.size(); i++)
+        list += (i == 0 ? "" : i + 1 == valid.size() ? " or " : ", ") + valid[i];
+    CV_Error(Error::StsBadArg, what() + "." + key + ": unknown '" +
+                                   (n.isString() ? (std::string)n : std::string("(not a name)")) +
+                                   "' (expected " + list + ")");
+}
+
 double ParamsIn::readNumber(const char* key, const FileNode& n, bool whole, double lo,
                             double hi) const {
     if (!n.isInt() && !n.isReal())
         CV_Error(Error::StsParseError, what() + "." + key + ": expected a number");
     const double d = (double)n;
     if (std::isnan(d) || (whole && (d != std::floor(d) || d < lo || d > hi)))
-        CV_Error(Error::StsParseError,
-                 format("%s.%s: %g is not %s", what().c_str(), key, d,
-                        whole ? format("a whole number in [%.0f, %.0f]", lo, hi).c_str() : "a number"));
+        CV_Error(
+            Error::StsParseError,
+            format("%s.%s: %g is not %s", what().c_str(), key, d,
+                   whole ? format("a whole number in [%.0f, %.0f]", lo, hi).c_str() : "a number"));
     return d;
 }
 

@@ -37,16 +37,7 @@ void VideoColorInfo::check() const {
 void VideoReadOptions::read(const FileNode& fn) {
     ParamsIn in(fn, "video read options");
     in("depth", depth);
-    if (const FileNode n = in.take("hdr"); !n.empty()) {
-        const std::string s = n.isString() ? (std::string)n : std::string();
-        if (s == "to_sdr")
-            hdr = HdrPolicy::ToSdr;
-        else if (s == "refuse")
-            hdr = HdrPolicy::Refuse;
-        else
-            CV_Error(Error::StsParseError,
-                     "video read options.hdr: expected to_sdr or refuse, got '" + s + "'");
-    }
+    in.choice("hdr", hdr, {{"to_sdr", HdrPolicy::ToSdr}, {"refuse", HdrPolicy::Refuse}});
     in("purpose", purpose);
     in("log", log);
     in("strict", strict);

@@ -48,16 +48,7 @@ DifferentialRenderer::Params::Params() = default;
 void DifferentialRenderer::Params::read(const FileNode& fn) {
     ParamsIn in(fn, "differential renderer parameters");
     in("render", render);
-    if (const FileNode n = in.take("method"); !n.empty()) {
-        const std::string s = n.isString() ? (std::string)n : std::string();
-        if (s == "one_pass")
-            method = ONE_PASS;
-        else if (s == "two_pass")
-            method = TWO_PASS;
-        else
-            CV_Error(Error::StsBadArg,
-                     "method: unknown '" + s + "' (expected one_pass or two_pass)");
-    }
+    in.choice("method", method, {{"one_pass", (int)ONE_PASS}, {"two_pass", (int)TWO_PASS}});
     in("independent", independent);
     if (const FileNode n = in.take("coverage"); !n.empty())
         coverage = parseCoverage((std::string)n);

@@ -47,16 +47,7 @@ void Renderer::Params::read(const FileNode& fn) {
     in("max_depth", max_depth);
     in("seed", seed);
     in("threads", threads);
-    if (const FileNode n = in.take("integrator"); !n.empty()) {
-        const std::string s = n.isString() ? (std::string)n : std::string();
-        if (s == "path")
-            integrator = PATH;
-        else if (s == "reference")
-            integrator = REFERENCE;
-        else
-            CV_Error(Error::StsBadArg,
-                     "integrator: unknown '" + s + "' (expected path or reference)");
-    }
+    in.choice("integrator", integrator, {{"path", (int)PATH}, {"reference", (int)REFERENCE}});
     in("with_objects", with_objects);
     if (const FileNode n = in.take("filter"); !n.empty()) filter = parseFilter((std::string)n);
     in("clamp", clamp);

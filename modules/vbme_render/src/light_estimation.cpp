@@ -19,15 +19,8 @@ namespace vbme {
 
 void LightEstimationParams::read(const FileNode& fn) {
     ParamsIn in(fn, "light estimation parameters");
-    if (const FileNode n = in.take("method"); !n.empty()) {
-        const std::string m = n.isString() ? (std::string)n : std::string();
-        if (m == "nnls")
-            method = NNLS;
-        else if (m == "hill-climb" || m == "hill_climb")
-            method = HILL_CLIMB;
-        else
-            CV_Error(Error::StsBadArg, "method: unknown '" + m + "' (expected nnls or hill-climb)");
-    }
+    in.choice("method", method,
+              {{"nnls", NNLS}, {"hill-climb", HILL_CLIMB}, {"hill_climb", HILL_CLIMB}});
     in("render_size", render_size);
     in("spp", spp);
     in("max_depth", max_depth);

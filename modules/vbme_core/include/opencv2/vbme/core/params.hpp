@@ -4,9 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
+#include <iterator>
 #include <limits>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -57,6 +60,20 @@ public:
         const FileNode n = take(key);
         if (n.empty() || n.isNone()) return false;
         assign(key, n, v);
+        return true;
+    }
+
+    /** @brief Reads @p key, a name, into @p v: the value paired with that name in @p names
+    (compared without case); an unknown name is an error listing the valid ones. Returns
+    whether the key was present. */
+    template <class T>
+    bool choice(const char* key, T& v, std::initializer_list<std::pair<const char*, T>> names) {
+        const FileNode n = take(key);
+        if (n.empty() || n.isNone()) return false;
+        std::vector<std::string> valid;
+        for (const auto& kv : names)
+            valid.emplace_back(kv.first);
+        v = std::next(names.begin(), pickName(key, n, valid))->second;
         return true;
     }
 
@@ -117,6 +134,8 @@ private:
     }
 
     bool readBool(const char* key, const FileNode& n) const;
+    size_t pickName(const char* key, const FileNode& n,
+                    const std::vector<std::string>& valid) const;
     double readNumber(const char* key, const FileNode& n, bool whole, double lo, double hi) const;
     std::string readString(const char* key, const FileNode& n) const;
     std::vector<double> readNumbers(const char* key, const FileNode& n, int count,
