@@ -53,3 +53,39 @@ TEST(RenderPlacement, PlaceOnFloorHitsThePixel) {
 }
 
 }  // namespace
+
+namespace {
+
+// The ray–floor intersection against plane geometry: a camera at height h looking down at
+// angle a sees the floor at distance h / tan(a) through the image centre, and the point
+// projects back onto the pixel; a pixel above the horizon, or a camera below the floor plane,
+// has no floor point.
+TEST(RenderPlacement, FloorPointUnderPixelMatchesGeometry) {
+    const double h = 1.5, a = 0.5;
+    const Size size(161, 121);
+    Camera cam = Camera::fromFocal(140, size);
+    // world z up; the camera looks along +y, tilted down by a (OpenCV axes: y down, z forward)
+    const Matx33d R(1, 0, 0, 0, -std::sin(a), -std::cos(a), 0, std::cos(a), -std::sin(a));
+    cam.R = R;
+    cam.t = -(R * Vec3d(0, 0, h));
+    Vec3d p;
+    ASSERT_TRUE(floorPointUnderPixel(cam, 0.0, Point2d(80, 60), p));
+    EXPECT_NEAR(p[0], 0, 1e-9);
+    EXPECT_NEAR(p[1], h / std::tan(a), 1e-9);
+    EXPECT_NEAR(p[2], 0, 1e-12);
+    for (const Point2d px : {Point2d(3, 118), Point2d(150.5, 70.25)}) {
+        ASSERT_TRUE(floorPointUnderPixel(cam, 0.2, px, p));
+        EXPECT_NEAR(p[2], 0.2, 1e-12);
+        const Point2d back = cam.project(p);
+        EXPECT_NEAR(back.x, px.x, 1e-6);
+        EXPECT_NEAR(back.y, px.y, 1e-6);
+    }
+    // 100 px above the centre the ray rises: atan(100 / 140) = 0.62 rad > a
+    const Vec3d untouched(7, 7, 7);
+    p = untouched;
+    EXPECT_FALSE(floorPointUnderPixel(cam, 0.0, Point2d(80, 60 - 100), p));
+    EXPECT_EQ(p, untouched);
+    EXPECT_FALSE(floorPointUnderPixel(cam, h + 0.1, Point2d(80, 60), p));  // camera below it
+}
+
+}  // namespace

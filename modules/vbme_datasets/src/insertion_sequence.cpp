@@ -12,6 +12,7 @@
 #include <opencv2/vbme/core/utility.hpp>
 #include <opencv2/vbme/datasets/room_sequence.hpp>
 #include <opencv2/vbme/render/integrator.hpp>
+#include <opencv2/vbme/render/placement.hpp>
 #include <opencv2/vbme/render/scene.hpp>
 
 namespace cv {
@@ -90,13 +91,12 @@ void writeTorusKnotObj(const std::string& path, double width, int segments, int 
 }
 
 Matx44d floorPlacement(const Camera& camera, const Room& room, Point2d px, double yaw_rad) {
-    const Vec3d c = camera.center(), d = camera.rayDirection(px);
-    if (!(d[2] < -1e-9) || c[2] <= room.min[2])
+    Vec3d p;
+    if (!floorPointUnderPixel(camera, room.min[2], px, p))
         CV_Error(Error::StsBadArg,
                  format("floorPlacement: the ray through pixel (%.1f, %.1f) does not go down to "
                         "the floor; choose a pixel below the horizon",
                         px.x, px.y));
-    const Vec3d p = c + d * ((room.min[2] - c[2]) / d[2]);
     const double cs = std::cos(yaw_rad), sn = std::sin(yaw_rad);
     return Matx44d(cs, -sn, 0, p[0], sn, cs, 0, p[1], 0, 0, 1, room.min[2], 0, 0, 0, 1);
 }

@@ -18,6 +18,14 @@ void objectWorldBounds(const SceneObject& object, Vec3d& lo, Vec3d& hi) {
     hi = Vec3d(h[0], h[1], h[2]);
 }
 
+bool floorPointUnderPixel(const Camera& camera, double floor_z, Point2d px, Vec3d& point) {
+    const Vec3d o = camera.center(), d = camera.rayDirection(px);
+    const double tt = d[2] < -1e-12 ? (floor_z - o[2]) / d[2] : -1;
+    if (!(tt > 0)) return false;
+    point = o + tt * d;
+    return true;
+}
+
 Matx44d placeOnFloor(const Scene& scene, const SceneObject& object, Point2d px) {
     if (!scene.has_room) CV_Error(Error::StsBadArg, "--place: the scene has no room (no floor)");
     const Camera& cam = scene.camera;
@@ -26,15 +34,13 @@ Matx44d placeOnFloor(const Scene& scene, const SceneObject& object, Point2d px) 
         CV_Error(Error::StsOutOfRange,
                  format("--place %g,%g: the pixel lies outside the %dx%d frame", px.x, px.y,
                         sz.width, sz.height));
-    const Vec3d o = cam.center(), d = cam.rayDirection(px);
-    const double floor_z = scene.room.min[2];
-    const double tt = d[2] < -1e-12 ? (floor_z - o[2]) / d[2] : -1;
-    if (!(tt > 0))
-        CV_Error(Error::StsBadArg,
-                 format("--place %g,%g: the frame-0 ray through this pixel does not meet the "
-                        "floor (it looks %s); pick a pixel that shows the floor",
-                        px.x, px.y, d[2] >= 0 ? "level or upwards" : "away from it"));
-    const Vec3d P = o + tt * d;
+    Vec3d P;
+    if (!floorPointUnderPixel(cam, scene.room.min[2], px, P))
+        CV_Error(
+            Error::StsBadArg,
+            format("--place %g,%g: the frame-0 ray through this pixel does not meet the "
+                   "floor (it looks %s); pick a pixel that shows the floor",
+                   px.x, px.y, cam.rayDirection(px)[2] >= 0 ? "level or upwards" : "away from it"));
     const Room& r = scene.room;
     if (P[0] < r.min[0] || P[0] > r.max[0] || P[1] < r.min[1] || P[1] > r.max[1])
         CV_Error(Error::StsBadArg,

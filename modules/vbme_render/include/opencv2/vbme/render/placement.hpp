@@ -21,6 +21,18 @@ traces). Throws cv::Exception if the mesh cannot be read.
 @param hi receives the largest world coordinates. */
 CV_EXPORTS void objectWorldBounds(const SceneObject& object, Vec3d& lo, Vec3d& hi);
 
+/** @brief Where the ray of @p camera through pixel @p px meets the horizontal plane
+z = @p floor_z (the room's floor), the one ray–floor intersection of placeOnFloor() and the
+datasets' floorPlacement().
+@param camera the camera the pixel belongs to.
+@param floor_z height of the floor plane (room.min.z).
+@param px pixel (x right, y down, pixel centres at integers).
+@param point receives the world point on the floor plane.
+@return false when the ray does not go down to the plane (it looks level or upwards, or the
+camera is not above the floor); @p point is then left unchanged. */
+CV_EXPORTS bool floorPointUnderPixel(const Camera& camera, double floor_z, Point2d px,
+                                     Vec3d& point);
+
 /** @brief world_from_object that stands @p object on the room's floor where the scene camera's
 pixel @p px looks.
 
