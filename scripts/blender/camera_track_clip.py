@@ -18,11 +18,13 @@ to 6 degrees per frame, with motion blur), then walks on, with a band-limited ha
 """
 import math
 import os
-import random
 import sys
 
 import bpy
 import mathutils
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import vbme_blender as vb  # noqa: E402
 
 argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 if not argv:
@@ -122,28 +124,9 @@ nt.links.new(emit.outputs["Emission"], out.inputs["Surface"])
 room.data.materials.append(mat)
 
 # ---------------------------------------------------------------- camera
-cam_data = bpy.data.cameras.new("cam")
-cam_data.sensor_fit = "HORIZONTAL"
-cam_data.sensor_width = 36.0
-cam_data.lens = FOCAL * 36.0 / W
-cam_data.clip_start = 0.01
-cam = bpy.data.objects.new("cam", cam_data)
-scene.collection.objects.link(cam)
-scene.camera = cam
-cam.rotation_mode = "XYZ"
-
-rng = random.Random(7)
-shake = [[(rng.uniform(0.5, 2.5), rng.uniform(0, 2 * math.pi)) for _ in range(3)] for _ in range(6)]
-
-
-def shake_at(k, f):
-    """Band-limited hand shake: a sum of three sinusoids (periods 12..60 frames), unit peak."""
-    return sum(math.sin(2 * math.pi * f * a / 30.0 + p) for a, p in shake[k]) / 3.0
-
-
-def smoothstep(a, b, f):
-    u = min(1.0, max(0.0, (f - a) / (b - a)))
-    return u * u * (3 - 2 * u)
+cam = vb.add_camera(scene, FOCAL, W)
+shake_at = vb.HandShake(7)
+smoothstep = vb.smoothstep
 
 
 def pose(f):
@@ -163,53 +146,16 @@ def pose(f):
     return c, yaw, pitch, roll
 
 
-for f in range(N):
-    c, yaw, pitch, roll = pose(f)
-    cam.location = c
-    # Blender cameras look down -z: X by 90 degrees looks along +y; pitch tilts down; Z turns.
-    cam.rotation_euler = (math.pi / 2 - pitch, roll, yaw)
-    cam.keyframe_insert("location", frame=f)
-    cam.keyframe_insert("rotation_euler", frame=f)
-for fc in cam.animation_data.action.fcurves:
-    for kp in fc.keyframe_points:
-        kp.interpolation = "LINEAR"
+vb.animate_camera(cam, pose, N)
 
 # ---------------------------------------------------------------- truth in vbme's conventions
-K = [[FOCAL, 0, (W - 1) / 2.0], [0, FOCAL, (H - 1) / 2.0], [0, 0, 1]]
-BL_TO_CV = mathutils.Matrix(((1, 0, 0), (0, -1, 0), (0, 0, -1)))  # flip camera y and z
-
-
-def cam_from_world(f):
-    scene.frame_set(f)
-    mw = cam.matrix_world
-    R_wc = mw.to_3x3().normalized()  # world_from_camera, Blender camera axes
-    C = mw.to_translation()
-    R = BL_TO_CV @ R_wc.transposed()  # cam_from_world, OpenCV axes
-    t = -(R @ C)
-    return R, t
-
-
+K = vb.intrinsics(FOCAL, W, H)
+poses = [vb.cam_from_world(scene, cam, f) for f in range(N)]
 os.makedirs(os.path.join(out_dir, "frames"), exist_ok=True)
-Kflat = [v for row in K for v in row]
-poses = [cam_from_world(f) for f in range(N)]
-with open(os.path.join(out_dir, "truth.yml"), "w") as fh:
-    fh.write("%YAML:1.0\n---\n")
-    fh.write("image_size: [ %d, %d ]\n" % (W, H))
-    fh.write("K: [ %s ]\n" % ", ".join("%.12g" % v for v in Kflat))
-    fh.write("frames:\n")
-    for f, (R, t) in enumerate(poses):
-        fh.write("   - { index: %d, R: [ %s ], t: [ %s ], source: sfm }\n" % (
-            f, ", ".join("%.12g" % R[i][j] for i in range(3) for j in range(3)),
-            ", ".join("%.12g" % v for v in t)))
+vb.write_camera_path(os.path.join(out_dir, "truth.yml"), (W, H), K, poses)
 R0, t0 = poses[0]
 with open(os.path.join(out_dir, "scene.yml"), "w") as fh:
-    fh.write("%YAML:1.0\n---\n")
-    fh.write("image_size: [ %d, %d ]\n" % (W, H))
-    fh.write("camera:\n")
-    fh.write("   K: [ %s ]\n" % ", ".join("%.12g" % v for v in Kflat))
-    fh.write("   R: [ %s ]\n" % ", ".join("%.12g" % R0[i][j] for i in range(3) for j in range(3)))
-    fh.write("   t: [ %s ]\n" % ", ".join("%.12g" % v for v in t0))
-    fh.write("   response: srgb\n")
+    vb.write_scene_camera(fh, (W, H), K, R0, t0)
     fh.write("room:\n   min: [ %g, %g, %g ]\n   max: [ %g, %g, %g ]\n" % (ROOM_MIN + ROOM_MAX))
 
 # Check of the axes: a room corner in front of frame 0's camera projects where Blender's own

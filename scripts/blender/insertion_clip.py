@@ -24,12 +24,14 @@ object is a diffuse sphere resting on the floor in front of the camera.
 """
 import math
 import os
-import random
 import subprocess
 import sys
 
 import bpy
 import mathutils
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import vbme_blender as vb  # noqa: E402
 
 argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 if not argv:
@@ -214,28 +216,9 @@ sphere = add_mesh("sphere", sv, sf, mat, smooth=True)
 sphere.location = SPHERE_CENTRE
 
 # ---------------------------------------------------------------- camera
-cam_data = bpy.data.cameras.new("cam")
-cam_data.sensor_fit = "HORIZONTAL"
-cam_data.sensor_width = 36.0
-cam_data.lens = FOCAL * 36.0 / W
-cam_data.clip_start = 0.01
-cam = bpy.data.objects.new("cam", cam_data)
-scene.collection.objects.link(cam)
-scene.camera = cam
-cam.rotation_mode = "XYZ"
-
-rng = random.Random(11)
-shake = [[(rng.uniform(0.5, 2.5), rng.uniform(0, 2 * math.pi)) for _ in range(3)] for _ in range(6)]
-
-
-def shake_at(k, f):
-    """Band-limited hand shake: a sum of three sinusoids (periods 12..60 frames), unit peak."""
-    return sum(math.sin(2 * math.pi * f * a / 30.0 + p) for a, p in shake[k]) / 3.0
-
-
-def smoothstep(a, b, f):
-    u = min(1.0, max(0.0, (f - a) / (b - a)))
-    return u * u * (3 - 2 * u)
+cam = vb.add_camera(scene, FOCAL, W)
+shake_at = vb.HandShake(11)
+smoothstep = vb.smoothstep
 
 
 def pose(f):
@@ -252,59 +235,21 @@ def pose(f):
     return c, yaw, pitch, roll
 
 
-for f in range(N):
-    c, yaw, pitch, roll = pose(f)
-    cam.location = c
-    cam.rotation_euler = (math.pi / 2 - pitch, roll, yaw)
-    cam.keyframe_insert("location", frame=f)
-    cam.keyframe_insert("rotation_euler", frame=f)
-for fc in cam.animation_data.action.fcurves:
-    for kp in fc.keyframe_points:
-        kp.interpolation = "LINEAR"
+vb.animate_camera(cam, pose, N)
 
 # ---------------------------------------------------------------- truth in vbme's conventions
-K = [[FOCAL, 0, (W - 1) / 2.0], [0, FOCAL, (H - 1) / 2.0], [0, 0, 1]]
-BL_TO_CV = mathutils.Matrix(((1, 0, 0), (0, -1, 0), (0, 0, -1)))  # flip camera y and z
-
-
-def cam_from_world(f):
-    scene.frame_set(f)
-    mw = cam.matrix_world
-    R_wc = mw.to_3x3().normalized()
-    C = mw.to_translation()
-    R = BL_TO_CV @ R_wc.transposed()
-    return R, -(R @ C)
-
-
-def flat(m):
-    return ", ".join("%.12g" % m[i][j] for i in range(3) for j in range(3))
-
-
-def vec(v):
-    return ", ".join("%.12g" % x for x in v)
-
-
-Kflat = [v for row in K for v in row]
-poses = [cam_from_world(f) for f in range(N)]
-with open(os.path.join(out_dir, "cameras.yml"), "w") as fh:
-    fh.write("%YAML:1.0\n---\n")
-    fh.write("image_size: [ %d, %d ]\n" % (W, H))
-    fh.write("K: [ %s ]\n" % vec(Kflat))
-    fh.write("frames:\n")
-    for f, (R, t) in enumerate(poses):
-        fh.write("   - { index: %d, R: [ %s ], t: [ %s ], source: sfm }\n" % (f, flat(R), vec(t)))
+K = vb.intrinsics(FOCAL, W, H)
+poses = [vb.cam_from_world(scene, cam, f) for f in range(N)]
+vb.write_camera_path(os.path.join(out_dir, "cameras.yml"), (W, H), K, poses)
 R0, t0 = poses[0]
 with open(os.path.join(out_dir, "scene.yml"), "w") as fh:
-    fh.write("%YAML:1.0\n---\n")
-    fh.write("image_size: [ %d, %d ]\n" % (W, H))
-    fh.write("camera:\n   K: [ %s ]\n   R: [ %s ]\n   t: [ %s ]\n   response: srgb\n" %
-             (vec(Kflat), flat(R0), vec(t0)))
+    vb.write_scene_camera(fh, (W, H), K, R0, t0)
     fh.write("room:\n   min: [ %g, %g, %g ]\n   max: [ %g, %g, %g ]\n" % (ROOM_MIN + ROOM_MAX))
     fh.write("lights:\n   - { type: polygon, corners: [ %s ], radiance: [ %s ] }\n" % (
-        ", ".join("[ %s ]" % vec(c) for c in light_corners), vec(LIGHT_RADIANCE)))
+        ", ".join("[ %s ]" % vb.vec(c) for c in light_corners), vb.vec(LIGHT_RADIANCE)))
     fh.write("objects:\n   - { mesh: sphere.obj, world_from_object: [ 1, 0, 0, %g, 0, 1, 0, %g, "
              "0, 0, 1, %g, 0, 0, 0, 1 ], material: { type: lambertian, albedo: [ %s ] } }\n" %
-             (*SPHERE_CENTRE, vec(SPHERE_ALBEDO)))
+             (*SPHERE_CENTRE, vb.vec(SPHERE_ALBEDO)))
     fh.write("render: { spp: 16, max_depth: 4, seed: 0 }\n")
 
 # Check of the axes: the sphere's centre projects where Blender's own world_to_camera_view puts it.
