@@ -307,6 +307,27 @@ TEST(RenderAlbedo, WhitePointFixesTheLightScale) {
     EXPECT_NEAR(power_ratio, 1.0, 0.1);
     EXPECT_LT(e_fixed, 0.1);
     EXPECT_LT(e_fixed, 0.5 * e_plain);
+    // Lights at their true power in a room whose whitest surfaces are darker than the white
+    // point asked for (grey walls): the lights stay as they are (never scaled down, which
+    // would darken everything rendered with them by white / true white) and the albedo is the
+    // truth's.
+    Scene exact = s;
+    exact.room.textures.clear();
+    std::map<std::string, Mat> exact_albedo;
+    const double brighter_white = std::min(1.0, 1.3 * white);
+    ASSERT_GT(brighter_white, 1.1 * white);
+    EXPECT_EQ(irradianceAlbedoWhitePoint(exact, L, seen, exact_albedo, brighter_white, p), 1.0);
+    EXPECT_EQ(exact.lights[0].radiance, s.lights[0].radiance);
+    double e_exact = 0;
+    for (const std::string& face : Room::faceNames())
+        if (face != "front")
+            e_exact += relError(exact_albedo.at(face), truth.at(face), seen.at(face));
+    e_exact /= nf;
+    std::printf(
+        "[ measured ] exact lights, white point %.3f above the room's %.3f: light scale "
+        "1, mean relative albedo error %.4f\n",
+        brighter_white, white, e_exact);
+    EXPECT_LT(e_exact, 0.1);
     // white = 0: one pass, lights untouched
     Scene same = dim;
     std::map<std::string, Mat> again;

@@ -159,8 +159,9 @@ void setupInsert(CLI::App& app) {
         ->check(CLI::IsMember({"nnls", "hill-climb", "none"}))
         ->capture_default_str();
     app.add_option("--white", o->p.white,
-                   "Albedo of the room's whitest surfaces: sets the light powers' scale for "
-                   "--albedo irradiance (0: keep the annotated powers)")
+                   "Largest albedo of the room's surfaces: the light powers are raised (never "
+                   "lowered) until the whitest surfaces reach it, for --albedo irradiance "
+                   "(0: keep the annotated powers)")
         ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
     app.add_flag("--per-frame-gain", o->p.per_frame_gain,

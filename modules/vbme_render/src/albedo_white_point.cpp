@@ -44,7 +44,11 @@ double irradianceAlbedoWhitePoint(Scene& scene, const std::map<std::string, Mat>
         std::nth_element(raw.begin(), raw.begin() + raw.size() * 99 / 100, raw.end());
         const double q = raw[raw.size() * 99 / 100];
         if (!(q > 0)) break;
-        const double k = q / white;  // lights × k brings the white point to `white`
+        // lights × k brings the white point to `white`; but only ever up: the scene's light
+        // powers are a lower bound (clipped LDR pixels) or exact, never too bright, and a room
+        // whose whitest surfaces are darker than `white` is common (grey walls)
+        double k = q / white;
+        if (scale * k < 1) k = 1 / scale;
         scale *= k;
         if (std::abs(k - 1) < 0.01) break;
         LightEstimate uniform;

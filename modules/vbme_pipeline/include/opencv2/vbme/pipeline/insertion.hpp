@@ -77,9 +77,11 @@ struct CV_EXPORTS InsertionParams {
     AlbedoMethod albedo = ALBEDO_IRRADIANCE;        //!< albedo method
     LightsMethod lights = LIGHTS_NNLS;              //!< light estimation method
     bool per_frame_gain = false;  //!< light estimation fits one exposure gain per frame
-    /** @brief Albedo of the room's whitest surfaces, which fixes the scale that image =
-    albedo × light power leaves open (irradianceAlbedoWhitePoint()); 0 keeps the annotated
-    powers. Used by ALBEDO_IRRADIANCE only (Retinex has its own RetinexParams::white). */
+    /** @brief Largest albedo of the room's surfaces: the lights are raised (never lowered)
+    until the whitest surfaces reach it, which fixes the scale that image = albedo × light power
+    leaves open when the annotated powers are a lower bound (irradianceAlbedoWhitePoint()); 0
+    keeps the annotated powers. Used by ALBEDO_IRRADIANCE only (Retinex has its own
+    RetinexParams::white). */
     double white = 0.9;
     int threads = 0;           //!< renderer worker threads (0: all cores)
     bool force = false;        //!< overwrite an existing --out; redo a foreign work folder
@@ -120,7 +122,7 @@ struct CV_EXPORTS PreparedInsertion {
     Scene scene;
     CameraPath path;                 //!< one camera per frame of the video
     LightEstimate lights;            //!< the light estimate (applied to @p scene's lights)
-    double white_scale = 1;          //!< factor applied to all lights before @p lights
+    double white_scale = 1;          //!< factor (≥ 1) applied to all lights before @p lights
     int frames = 0;                  //!< frames of the input video
     std::vector<double> timestamps;  //!< presentation time of each input frame (seconds)
     std::string fingerprint;         //!< hash of everything the preparation depends on
