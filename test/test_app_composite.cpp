@@ -81,9 +81,9 @@ TEST(AppComposite, ComposesAndEncodes) {
     writeDifferentialExr(dir / "l.exr", layers(sz));
     const std::string cmd =
         exe() + " --background " + dir / "bg.png --layers " + dir / "l.exr --out " + dir / "o.png";
-    auto r = run(cmd + " --alpha 2 --response gamma2.2");
+    auto r = run(cmd + " --alpha 2 --response gamma2.2 --shadows additive");
     ASSERT_EQ(r.code, 0) << r.output;
-    const Mat o = imread(dir / "o.png", IMREAD_UNCHANGED);
+    Mat o = imread(dir / "o.png", IMREAD_UNCHANGED);
     ASSERT_EQ(o.size(), sz);
     auto enc = [](float lin) {
         return saturate_cast<uchar>(std::round(encode(lin, Response::GAMMA22) * 255.f));
@@ -94,6 +94,18 @@ TEST(AppComposite, ComposesAndEncodes) {
         EXPECT_EQ(o.at<Vec3b>(7, 9)[c], bg.at<Vec3b>(0, 0)[c]);                 // untouched
         EXPECT_EQ(o.at<Vec3b>(0, 9)[c], enc(float(Scalar(0.2, 0.4, 0.6)[c])));  // object
     }
+    // the default, ratio shadows: the frame keeps 1 + α·diff / noobj of its light
+    r = run(cmd + " --alpha 2 --response gamma2.2 --force");
+    ASSERT_EQ(r.code, 0) << r.output;
+    o = imread(dir / "o.png", IMREAD_UNCHANGED);
+    const DifferentialImages l = layers(sz);
+    for (int c = 0; c < 3; ++c) {
+        const float I = linearize(bg.at<Vec3b>(0, 0)[c] / 255.f, Response::GAMMA22);
+        const float n = l.noobj.at<Vec3f>(7, 0)[c];
+        EXPECT_EQ(o.at<Vec3b>(7, 0)[c], enc(I * (1.f - 0.2f / n)));
+        EXPECT_EQ(o.at<Vec3b>(7, 9)[c], bg.at<Vec3b>(0, 0)[c]);
+    }
+    EXPECT_EQ(run(cmd + " --shadows darker --force").code, 2);
     EXPECT_EQ(run(cmd).code, 1);  // exists
     EXPECT_EQ(run(cmd + " --force").code, 0);
 }

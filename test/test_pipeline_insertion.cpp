@@ -296,6 +296,7 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
     a.albedo = InsertionParams::ALBEDO_RETINEX;
     a.lights = InsertionParams::LIGHTS_HILL_CLIMB;
     a.white = 0.7;
+    a.shadows = CompositeParams::SHADOWS_ADDITIVE;
     a.first = 3;
     a.end = 9;
     FileStorage w(".yml", FileStorage::WRITE | FileStorage::MEMORY);
@@ -314,6 +315,8 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
     EXPECT_EQ(b.albedo, InsertionParams::ALBEDO_RETINEX);
     EXPECT_EQ(b.lights, InsertionParams::LIGHTS_HILL_CLIMB);
     EXPECT_EQ(b.white, 0.7);
+    EXPECT_EQ(b.shadows, CompositeParams::SHADOWS_ADDITIVE);
+    EXPECT_EQ(InsertionParams().shadows, CompositeParams::SHADOWS_RATIO);
     EXPECT_EQ(b.first, 3);
     EXPECT_EQ(b.end, 9);
     EXPECT_NO_THROW(b.check());
@@ -333,6 +336,10 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
                   FileStorage::READ | FileStorage::MEMORY | FileStorage::FORMAT_JSON);
     const std::string e2 = error([&] { InsertionParams().read(m.root()); });
     EXPECT_NE(e2.find("irradiance, retinex"), std::string::npos) << e2;
+    FileStorage sh("{\"shadows\": \"darker\"}",
+                   FileStorage::READ | FileStorage::MEMORY | FileStorage::FORMAT_JSON);
+    const std::string e5 = error([&] { InsertionParams().read(sh.root()); });
+    EXPECT_NE(e5.find("additive, ratio"), std::string::npos) << e5;
     InsertionParams c = a;
     c.white = 1.5;
     const std::string e3 = error([&] { c.check(); });

@@ -305,6 +305,72 @@ TEST(RenderDifferential, CompositeFormulaAndClamp) {
     EXPECT_GT(clamped, 0);
     EXPECT_THROW(compositeDifferential(frame(Rect(0, 0, 6, 5)), obj, diff, M, lin, cp),
                  cv::Exception);
+    // ratio shadows need the noobj layer: refused by the overload without it
+    cp.shadows = CompositeParams::SHADOWS_RATIO;
+    EXPECT_THROW(compositeDifferential(frame, obj, diff, M, lin, cp), cv::Exception);
+}
+
+// Ratio shadows: where the difference is negative the footage keeps the fraction of light the
+// render keeps (I · (1 + α·diff/noobj)); elsewhere, and wherever the render's radiance equals
+// the footage's, the result is the additive one. A model brighter than the footage makes the
+// additive shadow black (clamped); the ratio shadow keeps the footage's texture and never goes
+// below zero.
+TEST(RenderDifferential, RatioShadowsFormula) {
+    RNG rng(5);
+    const Size sz(9, 6);
+    Mat frame(sz, CV_8UC3);
+    rng.fill(frame, RNG::UNIFORM, 1, 256);
+    Mat I;
+    linearize(frame, I, Response::SRGB);
+    DifferentialImages L;
+    L.noobj.create(sz, CV_32FC3);
+    L.obj.create(sz, CV_32FC3);
+    rng.fill(L.noobj, RNG::UNIFORM, 0, 1.5);
+    L.noobj.at<Vec3f>(0, 2) = Vec3f(0, 0, 0);  // no light in the model: a full loss
+    rng.fill(L.obj, RNG::UNIFORM, 0, 1.5);
+    L.diff = L.obj - L.noobj;
+    L.mask.create(sz, CV_32FC1);
+    rng.fill(L.mask, RNG::UNIFORM, 0, 1);
+    L.mask.row(0).setTo(0);
+    CompositeParams cp;
+    cp.alpha = 0.8f;
+    cp.shadows = CompositeParams::SHADOWS_RATIO;
+    Mat lin, add;
+    compositeDifferential(frame, L, lin, cp);
+    int shadowed = 0, black_additive = 0;
+    for (int y = 0; y < sz.height; ++y)
+        for (int x = 0; x < sz.width; ++x)
+            for (int c = 0; c < 3; ++c) {
+                const double i = I.at<Vec3f>(y, x)[c], d = L.diff.at<Vec3f>(y, x)[c];
+                const double n = L.noobj.at<Vec3f>(y, x)[c];
+                double back;
+                if (d < 0) {
+                    ++shadowed;
+                    back = i * std::max(0.0, 1 + 0.8 * std::max(-1.0, n > 0 ? d / n : -1.0));
+                    if (i + 0.8 * d <= 0) ++black_additive;
+                } else {
+                    back = i + 0.8 * d;
+                }
+                const double m = L.mask.at<float>(y, x);
+                const double want = m * L.obj.at<Vec3f>(y, x)[c] + (1 - m) * back;
+                EXPECT_NEAR(lin.at<Vec3f>(y, x)[c], want, 1e-5 * (1 + want));
+                EXPECT_GE(lin.at<Vec3f>(y, x)[c], 0.f);
+            }
+    EXPECT_GT(shadowed, 20);
+    EXPECT_GT(black_additive, 0);  // the case ratio shadows are for occurs in this data
+    // where the model's radiance is the footage's, ratio and additive agree
+    DifferentialImages same = L;
+    I.copyTo(same.noobj);
+    same.diff = same.obj - same.noobj;
+    Mat r1, a1;
+    compositeDifferential(frame, same, r1, cp);
+    cp.shadows = CompositeParams::SHADOWS_ADDITIVE;
+    compositeDifferential(frame, same, a1, cp);
+    EXPECT_LT(norm(r1, a1, NORM_INF), 1e-5);
+    // the additive overload and the layers overload agree for additive shadows
+    compositeDifferential(frame, L, lin, cp);
+    compositeDifferential(frame, L.obj, L.diff, L.mask, add, cp);
+    EXPECT_EQ(norm(lin, add, NORM_INF), 0.0);
 }
 
 // The 8×8 projected coverage of one triangle integrates to its analytic image area; pixels well
@@ -458,6 +524,19 @@ TEST(RenderDifferential, ParamsReadWrite) {
     d.read(ic["c"]);
     EXPECT_EQ(d.alpha, 0.25f);
     EXPECT_EQ(d.response, Response::GAMMA22);
+    EXPECT_EQ(d.shadows, CompositeParams::SHADOWS_ADDITIVE);
+    c.shadows = CompositeParams::SHADOWS_RATIO;
+    FileStorage fr("c.yml", FileStorage::WRITE | FileStorage::MEMORY);
+    fr << "c"
+       << "{";
+    c.write(fr);
+    fr << "}";
+    FileStorage ir(fr.releaseAndGetString(), FileStorage::READ | FileStorage::MEMORY);
+    d.read(ir["c"]);
+    EXPECT_EQ(d.shadows, CompositeParams::SHADOWS_RATIO);
+    FileStorage bad("%YAML:1.0\nc: { shadows: multiply }\n",
+                    FileStorage::READ | FileStorage::MEMORY);
+    EXPECT_THROW(d.read(bad["c"]), cv::Exception);
 }
 
 // The one-pass differential render is bitwise identical for any thread count.

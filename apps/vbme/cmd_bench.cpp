@@ -607,9 +607,10 @@ void benchInsert(const BenchOptions& o) {
     const Ptr<RenderScene> rs = RenderScene::create(scene);
     CompositeParams cp;
     cp.response = cam.response;
+    cp.shadows = CompositeParams::SHADOWS_RATIO;  // as vbme insert composites
     auto display = [&](const DifferentialImages& im) {
         Mat lin, enc;
-        compositeDifferential(bg, im.obj, im.diff, im.mask, lin, cp);
+        compositeDifferential(bg, im, lin, cp);
         encode(lin, enc, cp.response, CV_32F);
         min(max(enc, 0.0), 1.0, enc);
         return Mat(enc * 255.0);

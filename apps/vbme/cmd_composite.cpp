@@ -1,5 +1,5 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-// vbme composite: additive differential compositing of a differential render onto a frame.
+// vbme composite: differential compositing of a differential render onto a frame.
 #include <cstdio>
 #include <filesystem>
 
@@ -14,6 +14,7 @@ namespace {
 
 struct CompositeOptions {
     std::string background, layers, out, response = "srgb";
+    std::string shadows = "ratio";
     float alpha = 1.f;
     CommonOptions common;
 };
@@ -34,19 +35,23 @@ void runComposite(const CompositeOptions& o) {
     CompositeParams cp;
     cp.alpha = o.alpha;
     cp.response = parseResponse(o.response);
+    cp.shadows = parseShadows(o.shadows, "--shadows");
     cv::Mat linear, enc;
-    compositeDifferential(frame, im.obj, im.diff, im.mask, linear, cp);
+    compositeDifferential(frame, im, linear, cp);
     encodeComposite(linear, enc, cp.response, frame.depth());
     imwriteAtomic(o.out, enc);
-    std::printf("composited %dx%d (alpha %g, response %s)\n", frame.cols, frame.rows, o.alpha,
-                o.response.c_str());
+    std::printf("composited %dx%d (alpha %g, response %s, %s shadows)\n", frame.cols, frame.rows,
+                o.alpha, o.response.c_str(), o.shadows.c_str());
 }
 
 void setupComposite(CLI::App& app) {
     auto o = std::make_shared<CompositeOptions>();
     app.footer(
-        "Additive differential compositing (Debevec 1998):\n"
-        "  result = M*obj + (1-M)*max(0, input + alpha*(obj - noobj))\n"
+        "Differential compositing (Debevec 1998):\n"
+        "  result = M*obj + (1-M)*back\n"
+        "  back = max(0, input + alpha*diff)            where diff = obj - noobj >= 0, or always\n"
+        "                                               with --shadows additive\n"
+        "  back = input*max(0, 1 + alpha*max(-1, diff/noobj))  where diff < 0 (ratio shadows)\n"
         "in linear space: the frame is linearised with --response, the layers (obj.*, diff.*,\n"
         "mask of an EXR written by `vbme render --differential`) are linear, and the result\n"
         "is re-encoded with the same response (16-bit output for a 16-bit frame).");
@@ -55,6 +60,11 @@ void setupComposite(CLI::App& app) {
     app.add_option("--layers", o->layers, "EXR with the obj.*, diff.* and mask layers")->required();
     app.add_option("--out", o->out, "Output image (.png)")->required();
     app.add_option("--alpha", o->alpha, "Scale of the difference term (default 1)");
+    app.add_option("--shadows", o->shadows,
+                   "Shadows (diff < 0): ratio (the frame loses the fraction of light the "
+                   "render loses) or additive")
+        ->check(CLI::IsMember({"ratio", "additive"}))
+        ->capture_default_str();
     app.add_option("--response", o->response, "Camera response of the frame")
         ->check(CLI::IsMember({"srgb", "gamma2.2", "linear"}));
     addCommonOptions(app, o->common);
@@ -71,7 +81,8 @@ void setupComposite(CLI::App& app) {
 }  // namespace
 
 VBME_REGISTER_COMMAND("composite",
-                      "Composite a differential render onto a frame (Eq. 5.2, linear space)",
+                      "Composite a differential render onto a frame (Eq. 5.2 with ratio shadows, "
+                      "linear space)",
                       setupComposite);
 
 }  // namespace vbme_app

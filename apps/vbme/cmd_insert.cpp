@@ -18,7 +18,8 @@ struct InsertOptions {
     cv::vbme::InsertionParams p;
     std::string place, frames;
     // the command line's words for InsertionParams' enums
-    std::string texture_mode = "accumulate", albedo = "irradiance", lights = "nnls";
+    std::string texture_mode = "accumulate", albedo = "irradiance", lights = "nnls",
+                shadows = "ratio";
     CommonOptions common;
 };
 
@@ -54,6 +55,7 @@ void parseOptions(InsertOptions& o) {
     o.p.texture_mode = fromWord(o.texture_mode, {P::TEXTURE_ACCUMULATE, P::TEXTURE_PER_FRAME});
     o.p.albedo = fromWord(o.albedo, {P::ALBEDO_IRRADIANCE, P::ALBEDO_RETINEX});
     o.p.lights = fromWord(o.lights, {P::LIGHTS_NNLS, P::LIGHTS_HILL_CLIMB, P::LIGHTS_NONE});
+    o.p.shadows = cv::vbme::parseShadows(o.shadows, "--shadows");
 }
 
 void runInsert(InsertOptions& o) {
@@ -163,6 +165,12 @@ void setupInsert(CLI::App& app) {
                    "lowered) until the whitest surfaces reach it, for --albedo irradiance "
                    "(0: keep the annotated powers)")
         ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    app.add_option("--shadows", o->shadows,
+                   "How the objects' shadows go onto the footage: ratio (the footage loses the "
+                   "fraction of light the model loses; never negative, follows the exposure) "
+                   "or additive (Eq. 5.2: footage + with - without)")
+        ->check(CLI::IsMember({"ratio", "additive"}))
         ->capture_default_str();
     app.add_flag("--per-frame-gain", o->p.per_frame_gain,
                  "Light estimation also fits one exposure gain per frame (auto-exposure)");

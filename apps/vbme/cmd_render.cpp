@@ -21,7 +21,7 @@ struct RenderOptions {
     bool no_objects = false, preview = false;
     // differential rendering
     bool differential = false, independent = false;
-    std::string background, composite, mask = "projected", frame_seeds = "fixed";
+    std::string background, composite, mask = "projected", frame_seeds = "fixed", shadows = "ratio";
     float alpha = 1.f;
     CommonOptions common;
 };
@@ -61,8 +61,9 @@ void runDifferential(const RenderOptions& o, const cv::vbme::Scene& scene,
     CompositeParams cp;
     cp.alpha = o.alpha;
     cp.response = camera.response;
+    cp.shadows = parseShadows(o.shadows, "--shadows");
     cv::Mat linear;
-    compositeDifferential(frame, im.obj, im.diff, im.mask, linear, cp);
+    compositeDifferential(frame, im, linear, cp);
     std::map<std::string, std::string> attr = {
         {"vbme.version", VBME_VERSION},
         {"vbme.commandLine", commandLine()},
@@ -72,6 +73,7 @@ void runDifferential(const RenderOptions& o, const cv::vbme::Scene& scene,
         {"vbme.scene", o.scene},
         {"vbme.background", o.background},
         {"vbme.alpha", cv::format("%g", o.alpha)},
+        {"vbme.shadows", o.shadows},
         {"vbme.response", toString(camera.response)},
         {"vbme.sampling", o.independent ? "independent" : "correlated"}};
     writeDifferentialExr(o.out, im, linear, attr);
@@ -231,12 +233,17 @@ void setupRender(CLI::App& app) {
     auto* ind = app.add_flag("--independent", o->independent,
                              "Give the two renders unrelated samples (two passes; for comparison)");
     auto* al = app.add_option("--alpha", o->alpha, "Scale of the difference term (default 1)");
+    auto* sh = app.add_option("--shadows", o->shadows,
+                              "Shadows (negative difference): ratio (the frame loses the fraction "
+                              "of light the render loses) or additive (frame + difference)")
+                   ->check(CLI::IsMember({"ratio", "additive"}))
+                   ->capture_default_str();
     auto* mk = app.add_option("--mask", o->mask,
                               "Coverage mask M: projected (triangles, 8x8 per pixel) or rays "
                               "(the renderer's camera rays)")
                    ->check(CLI::IsMember({"projected", "rays"}));
     diff->needs(bg);
-    for (auto* opt : {bg, comp, ind, al, mk})
+    for (auto* opt : {bg, comp, ind, al, sh, mk})
         opt->needs(diff);
     addCommonOptions(app, o->common);
     app.callback([o] {

@@ -149,6 +149,9 @@ try {
   await key('c');
   for (const p of truth.ceiling_back) await clickAt(p);
   await calibrated();
+  // The last click's request may still be debounced when calibrated() looks (seen on a loaded
+  // machine): wait for the room itself, and fail below if it never comes.
+  await page.waitForFunction(() => !!window.vbmeAnnotate.state.feedback.room, { timeout: 15000 }).catch(() => {});
   const room = await page.evaluate(() => window.vbmeAnnotate.state.feedback.room);
   check(!!room, `the fitted room box is shown: ${room ? JSON.stringify([room.min, room.max].map((v) => v.map((x) => +x.toFixed(3)))) : 'none'}`);
   await page.screenshot({ path: path.join(art, '3_room_box.png') });

@@ -717,12 +717,13 @@ AnnotateReply AnnotateSession::preview(const AnnotateRequest& r) const {
         const cv::Ptr<RenderScene> rs = RenderScene::create(scene);
         DifferentialRenderer::create(p)->render(*rs, half, layers);
     }
-    for (cv::Mat* m : {&layers.obj, &layers.diff, &layers.mask})
+    for (cv::Mat* m : {&layers.obj, &layers.noobj, &layers.diff, &layers.mask})
         cv::resize(*m, *m, image.size(), 0, 0, cv::INTER_LINEAR);
     cv::Mat linear, encoded;
     CompositeParams cp;
     cp.response = scene.camera.response;
-    compositeDifferential(image, layers.obj, layers.diff, layers.mask, linear, cp);
+    cp.shadows = CompositeParams::SHADOWS_RATIO;  // as vbme insert composites
+    compositeDifferential(image, layers, linear, cp);
     encodeComposite(linear, encoded, scene.camera.response, CV_8U);
     std::vector<uchar> buf;
     cv::imencode(".png", encoded, buf);

@@ -86,6 +86,7 @@ void CompositeParams::read(const FileNode& fn) {
     in("alpha", alpha);
     if (const FileNode n = in.take("response"); !n.empty())
         response = parseResponse((std::string)n);
+    in.choice("shadows", shadows, {{"additive", SHADOWS_ADDITIVE}, {"ratio", SHADOWS_RATIO}});
     in.finish();
     check();
 }
@@ -95,7 +96,18 @@ void CompositeParams::check() const {
 }
 
 void CompositeParams::write(FileStorage& fs) const {
-    fs << "alpha" << alpha << "response" << toString(response);
+    fs << "alpha" << alpha << "response" << toString(response) << "shadows" << toString(shadows);
+}
+
+std::string toString(CompositeParams::Shadows s) {
+    return s == CompositeParams::SHADOWS_RATIO ? "ratio" : "additive";
+}
+
+CompositeParams::Shadows parseShadows(const std::string& name, const std::string& field) {
+    if (name == "additive") return CompositeParams::SHADOWS_ADDITIVE;
+    if (name == "ratio") return CompositeParams::SHADOWS_RATIO;
+    CV_Error(Error::StsBadArg,
+             field + ": unknown shadow compositing '" + name + "' (valid: additive, ratio)");
 }
 
 namespace {
@@ -275,16 +287,20 @@ void projectObjectCoverage(const RenderScene& scene_in, const Camera& camera, Ou
     }
 }
 
-void compositeDifferential(InputArray background_in, InputArray obj_in, InputArray diff_in,
-                           InputArray mask_in, OutputArray linear, const CompositeParams& params) {
-    const Mat bg = background_in.getMat(), obj = obj_in.getMat(), diff = diff_in.getMat(),
-              M = mask_in.getMat();
+namespace {
+
+// The compositor of both overloads; @p noobj is empty for additive shadows.
+void compositeLayers(const Mat& bg, const Mat& obj, const Mat& diff, const Mat& noobj, const Mat& M,
+                     OutputArray linear, const CompositeParams& params) {
     if (bg.empty() || bg.channels() != 3)
         CV_Error(Error::StsBadArg,
                  "compositeDifferential: the background must be a 3-channel "
                  "(BGR) image");
     auto sizeText = [](const Mat& m) { return cv::format("%dx%d", m.cols, m.rows); };
-    for (const auto& pr : {std::make_pair("obj", &obj), std::make_pair("diff", &diff)}) {
+    const bool ratio = params.shadows == CompositeParams::SHADOWS_RATIO;
+    std::vector<std::pair<const char*, const Mat*>> layers = {{"obj", &obj}, {"diff", &diff}};
+    if (ratio) layers.push_back({"noobj", &noobj});
+    for (const auto& pr : layers) {
         const Mat& m = *pr.second;
         if (m.type() != CV_32FC3 || m.size() != bg.size())
             CV_Error(Error::StsBadArg,
@@ -306,17 +322,45 @@ void compositeDifferential(InputArray background_in, InputArray obj_in, InputArr
         const Vec3f* I = lin.ptr<Vec3f>(y);
         const Vec3f* O = obj.ptr<Vec3f>(y);
         const Vec3f* D = diff.ptr<Vec3f>(y);
+        const Vec3f* N = ratio ? noobj.ptr<Vec3f>(y) : nullptr;
         const float* m = M.ptr<float>(y);
         Vec3f* R = out.ptr<Vec3f>(y);
         for (int x = 0; x < bg.cols; ++x) {
             const float w = std::min(1.f, std::max(0.f, m[x]));
             for (int c = 0; c < 3; ++c) {
-                const float back = std::max(0.f, I[x][c] + alpha * D[x][c]);
+                const float d = D[x][c];
+                float back;
+                if (ratio && d < 0.f) {
+                    // the fraction of the model's light the objects take, taken from the footage
+                    const float n = N[x][c];
+                    const float lost = n > 0.f ? std::max(-1.f, d / n) : -1.f;
+                    back = I[x][c] * std::max(0.f, 1.f + alpha * lost);
+                } else {
+                    back = std::max(0.f, I[x][c] + alpha * d);
+                }
                 // Written so that w = 0 gives `back` exactly (and w = 1 gives obj exactly).
                 R[x][c] = w == 0.f ? back : (w == 1.f ? O[x][c] : w * O[x][c] + (1.f - w) * back);
             }
         }
     }
+}
+
+}  // namespace
+
+void compositeDifferential(InputArray background_in, InputArray obj_in, InputArray diff_in,
+                           InputArray mask_in, OutputArray linear, const CompositeParams& params) {
+    if (params.shadows == CompositeParams::SHADOWS_RATIO)
+        CV_Error(Error::StsBadArg,
+                 "compositeDifferential: ratio shadows need the noobj layer (use the "
+                 "DifferentialImages overload)");
+    compositeLayers(background_in.getMat(), obj_in.getMat(), diff_in.getMat(), Mat(),
+                    mask_in.getMat(), linear, params);
+}
+
+void compositeDifferential(InputArray background, const DifferentialImages& layers,
+                           OutputArray linear, const CompositeParams& params) {
+    compositeLayers(background.getMat(), layers.obj, layers.diff, layers.noobj, layers.mask, linear,
+                    params);
 }
 
 void encodeComposite(InputArray linear, OutputArray encoded, Response response, int ddepth) {

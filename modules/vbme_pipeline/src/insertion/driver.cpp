@@ -27,6 +27,8 @@ void checkFrameSettings(const PreparedInsertion& prep, int spp, bool force) {
     const std::string settings = (fs::path(prep.work) / "frames" / "settings.yml").string();
     std::string want = format("%s spp=%d max_depth=%d seed=%llu", prep.fingerprint.c_str(), spp,
                               rp.max_depth, (unsigned long long)rp.seed);
+    // ratio shadows (the default since they exist): frames made before them lack the word
+    if (prep.composite.shadows == CompositeParams::SHADOWS_RATIO) want += " shadows=ratio";
     if (rp.adaptive_min_spp > 0 || rp.texture_cone > 0)
         want += format(" adaptive=%d,%g,%g texture_cone=%g", rp.adaptive_min_spp, rp.adaptive_error,
                        rp.adaptive_roulette, rp.texture_cone);
@@ -105,7 +107,8 @@ void renderFrames(const InsertionParams& p, PreparedInsertion& prep, int first, 
                      ? format("correlated, adaptive %d..%d spp, error %g, roulette %g",
                               rp.adaptive_min_spp, rp.spp, rp.adaptive_error, rp.adaptive_roulette)
                      : std::string("correlated")},
-                {"vbme.textureCone", format("%g", rp.texture_cone)}};
+                {"vbme.textureCone", format("%g", rp.texture_cone)},
+                {"vbme.shadows", toString(prep.composite.shadows)}};
             writeDifferentialExr(exrFile(work, i), im, linear, attr);
         }
         imwriteAtomic(out_file, enc);  // last: its presence means the frame is done

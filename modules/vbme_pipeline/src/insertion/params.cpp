@@ -77,6 +77,8 @@ void InsertionParams::read(const FileNode& fn) {
     if (r.has("lights")) lights = (LightsMethod)parseWord(r.node("lights"), "lights", kLightsWords);
     r("per_frame_gain", per_frame_gain);
     r("white", white);
+    if (r.has("shadows"))
+        shadows = parseShadows((std::string)r.node("shadows"), "InsertionParams.shadows");
     r("threads", threads);
     r("force", force);
     r("command_line", command_line);
@@ -94,7 +96,8 @@ void InsertionParams::write(FileStorage& fs) const {
        << texture_cone << "first" << first << "end" << end << "prepare_only" << (int)prepare_only
        << "keep_exr" << (int)keep_exr << "texture_mode" << toString(texture_mode) << "albedo"
        << toString(albedo) << "lights" << toString(lights) << "per_frame_gain"
-       << (int)per_frame_gain << "white" << white << "threads" << threads << "force" << (int)force;
+       << (int)per_frame_gain << "white" << white << "shadows" << toString(shadows) << "threads"
+       << threads << "force" << (int)force;
 }
 
 void InsertionParams::check() const {
@@ -125,6 +128,8 @@ void InsertionParams::check() const {
         bad(format("lights = %d: expected LIGHTS_NNLS, LIGHTS_HILL_CLIMB or LIGHTS_NONE",
                    (int)lights));
     if (!(white >= 0 && white <= 1)) bad(format("white = %g: expected in [0, 1]", white));
+    if (shadows != CompositeParams::SHADOWS_ADDITIVE && shadows != CompositeParams::SHADOWS_RATIO)
+        bad(format("shadows = %d: expected SHADOWS_ADDITIVE or SHADOWS_RATIO", (int)shadows));
     if (threads < 0) bad(format("threads = %d: expected >= 0 (0: all cores)", threads));
 }
 

@@ -112,6 +112,8 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
     out.lights = rec.lights;
     out.white_scale = rec.white_scale;
     out.render = frameRenderParams(p, out.scene);
+    out.composite.response = out.scene.camera.response;
+    out.composite.shadows = p.shadows;
     if (report) {
         report->setFigure("prepared_reused", out.reused ? 1 : 0);
         report->setFigure("white_scale", out.white_scale);

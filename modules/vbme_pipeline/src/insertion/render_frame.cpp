@@ -18,13 +18,12 @@ void renderInsertionFrame(PreparedInsertion& prepared, int i, InputArray frame,
         dp.render = prepared.render;
         prepared.renderer = DifferentialRenderer::create(dp);
     }
-    CompositeParams cp;
-    cp.response = prepared.scene.camera.response;
+    const CompositeParams& cp = prepared.composite;
     DifferentialImages local;
     DifferentialImages& im = layers ? *layers : local;
     prepared.renderer->render(*prepared.render_scene, prepared.camera(i), im);
     Mat linear;
-    compositeDifferential(frame, im.obj, im.diff, im.mask, linear, cp);
+    compositeDifferential(frame, im, linear, cp);
     encodeComposite(linear, composite, cp.response, frame.depth());
     if (composite_linear) *composite_linear = linear;
 }

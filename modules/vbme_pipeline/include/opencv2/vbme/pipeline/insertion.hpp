@@ -83,6 +83,10 @@ struct CV_EXPORTS InsertionParams {
     keeps the annotated powers. Used by ALBEDO_IRRADIANCE only (Retinex has its own
     RetinexParams::white). */
     double white = 0.9;
+    /** @brief How the objects' shadows go onto the footage (CompositeParams::Shadows): ratio
+    (default; the footage loses the fraction of light the model loses, which is never negative
+    and follows the footage's exposure) or additive (Eq. 5.2). */
+    CompositeParams::Shadows shadows = CompositeParams::SHADOWS_RATIO;
     int threads = 0;           //!< renderer worker threads (0: all cores)
     bool force = false;        //!< overwrite an existing --out; redo a foreign work folder
     std::string command_line;  //!< recorded in the EXR provenance attributes (optional)
@@ -130,6 +134,9 @@ struct CV_EXPORTS PreparedInsertion {
     bool reused = false;             //!< the work folder's prepared scene was reused
     /** @brief Path tracer settings of every frame (spp, seed, adaptive sampling). */
     Renderer::Params render;
+    /** @brief Compositing of every frame (the response is the scene camera's; the shadow
+    mode InsertionParams::shadows). */
+    CompositeParams composite;
     /** @brief The camera of frame @p i (the path's pose, the scene's response and size). */
     Camera camera(int i) const;
 
@@ -158,8 +165,8 @@ CV_EXPORTS PreparedInsertion prepareInsertion(const InsertionParams& p,
                                               PipelineReport* report = nullptr);
 
 /** @brief Renders frame @p i of a prepared insertion and composites it onto the input frame
-(DifferentialRenderer with shared samples and a fixed seed, compositeDifferential(),
-encodeComposite()).
+(DifferentialRenderer with shared samples and a fixed seed, compositeDifferential() with
+PreparedInsertion::composite, encodeComposite()).
 @param prepared the preparation (its render scene is built on the first call).
 @param i frame index in [0, prepared.frames).
 @param frame the input video's frame @p i (8- or 16-bit BGR, the scene's image size).

@@ -122,8 +122,23 @@ CV_EXPORTS uint64 frameSeed(uint64 seed, int frame, FrameSeeding mode);
 
 /** @brief Options of the differential compositor. */
 struct CV_EXPORTS CompositeParams {
+    /** @brief How the light the objects take away (a negative difference: shadows) is put on
+    the footage. */
+    enum Shadows {
+        /** `input + α·diff` everywhere (Eq. 5.2, @cite Debevec1998): exact where the model's
+        radiance I_noObj equals the footage's; where the model is brighter than the footage
+        (noise at low spp, texture or albedo error), a deep shadow goes below zero and is
+        clamped black, channel by channel. */
+        SHADOWS_ADDITIVE = 0,
+        /** where diff < 0, the footage loses the fraction of its light that the model loses:
+        `input · (1 + α·max(−1, diff / I_noObj))` (per channel; the same as additive where
+        I_noObj equals the footage, never negative, and it follows the footage's exposure);
+        where diff ≥ 0 (light the objects add) additive. Needs the `noobj` layer. */
+        SHADOWS_RATIO = 1
+    };
     float alpha = 1.f;                   //!< scale α of the difference term (Karsch et al.)
     Response response = Response::SRGB;  //!< camera response of the background frame
+    Shadows shadows = SHADOWS_ADDITIVE;  //!< additive or ratio shadows
     /** @brief Reads the fields present in @p fn; an unknown key or a value check() refuses is
     an error. */
     void read(const FileNode& fn);
@@ -132,6 +147,12 @@ struct CV_EXPORTS CompositeParams {
     /** @brief Throws a cv::Exception naming the first field outside its valid range. */
     void check() const;
 };
+
+/** @brief The command line's word for a shadow mode ("additive", "ratio"). */
+CV_EXPORTS std::string toString(CompositeParams::Shadows s);
+/** @brief Parses "additive" or "ratio" (throws cv::Exception naming @p field otherwise). */
+CV_EXPORTS CompositeParams::Shadows parseShadows(const std::string& name,
+                                                 const std::string& field = "shadows");
 
 /** @brief Additive differential compositing (Eq. 5.2 of the thesis, @cite Debevec1998) in
 linear space:
@@ -148,9 +169,29 @@ rather than negative.
 @param diff I_obj − I_noObj, CV_32FC3.
 @param mask M, CV_32FC1 in [0, 1].
 @param linear receives the composite, CV_32FC3 linear BGR.
-@param params α and the response. */
+@param params α and the response; CompositeParams::SHADOWS_RATIO needs the `noobj` layer, so
+it is refused here (use the DifferentialImages overload). */
 CV_EXPORTS void compositeDifferential(InputArray background, InputArray obj, InputArray diff,
                                       InputArray mask, OutputArray linear,
+                                      const CompositeParams& params = CompositeParams());
+
+/** @brief Differential compositing of a differential render's layers (`obj`, `noobj`, `diff`,
+`mask`) in linear space, additive or with ratio shadows (CompositeParams::shadows):
+
+`result = M·I_obj + (1 − M)·back`, with `back = max(0, I_input + α·diff)` where the difference is
+positive or shadows are additive, and `back = I_input · max(0, 1 + α·max(−1, diff / I_noObj))`
+(per channel; I_noObj ≤ 0 counts as a full loss) for ratio shadows where it is negative.
+
+Ratio shadows are what `vbme insert` uses: on the Blender insertion clip they took the region
+PSNR from 31.2 to 32.8 dB and removed the black, coloured speckle that additive compositing
+leaves where the ground meets the object (see doc/vbme_render_differential.md).
+@param background the input frame, display-encoded BGR (CV_8UC3, CV_16UC3 or CV_32FC3).
+@param layers the render's layers (CV_32FC3 `obj`, `diff` and, for ratio shadows, `noobj`;
+CV_32FC1 `mask`), of @p background's size.
+@param linear receives the composite, CV_32FC3 linear BGR.
+@param params α, the response and the shadow mode. */
+CV_EXPORTS void compositeDifferential(InputArray background, const DifferentialImages& layers,
+                                      OutputArray linear,
                                       const CompositeParams& params = CompositeParams());
 
 /** @brief Encodes a linear composite with the response, to the depth of the input frame
