@@ -135,4 +135,58 @@ TEST(PipelineInsertBlender, TrueCamerasBeatTheInputAgainstCyclesTruth) {
     EXPECT_GT(p_out, p_off + 1.5);
 }
 
+// Adaptive sampling of the differential render (issue 16), on the same footage: with a minimum
+// of 2 and at most 32 samples per pixel it must beat uniform 8 spp by a clear margin at about
+// its cost, and come near uniform 32 spp. (Its estimate used to weigh the later samples by the
+// cap, 1 − n_min / 32, so that it rested on them alone: 35.00 dB then, 36.16 dB now.)
+TEST(PipelineInsertBlender, AdaptiveSamplingBeatsUniformAtItsCost) {
+    const std::string data = std::string(VBME_TEST_DATA_DIR) + "/insertion_blender";
+    vbme_test::ScratchDir tmp;
+    InsertionParams ip;
+    ip.video = data + "/plate.mkv";
+    ip.scene = data + "/scene.yml";
+    ip.cameras = data + "/cameras.yml";
+    ip.out = tmp / "inserted.mkv";
+    ip.work = tmp / "work";
+    const PreparedInsertion prep = prepareInsertion(ip);
+    const int frame = 1;
+    Mat in, tr;
+    {
+        VideoReader plate(ip.video), truth(data + "/truth.mkv");
+        for (int i = 0; i <= frame; ++i) {
+            ASSERT_TRUE(plate.read(in));
+            ASSERT_TRUE(truth.read(tr));
+        }
+    }
+    const Mat region = influence(in, tr);
+    struct Run {
+        const char* name;
+        int spp, min_spp;
+        double psnr = 0, mean_spp = 0, seconds = 0;
+    };
+    std::vector<Run> runs = {{"uniform 8", 8, 0}, {"adaptive 2..32", 32, 2}, {"uniform 32", 32, 0}};
+    for (Run& r : runs) {
+        PreparedInsertion p = prep;
+        p.renderer.release();
+        p.render.spp = r.spp;
+        p.render.adaptive_min_spp = r.min_spp;
+        p.render.adaptive_error = 0.5f;
+        p.render.adaptive_roulette = 0;
+        DifferentialImages layers;
+        Mat out;
+        const int64 t0 = getTickCount();
+        renderInsertionFrame(p, frame, in, out, &layers);
+        r.seconds = double(getTickCount() - t0) / getTickFrequency();
+        r.psnr = regionPsnr(out, tr, region);
+        r.mean_spp = r.min_spp > 0 ? mean(layers.samples)[0] : r.spp;
+        std::printf("%s: region PSNR %.2f dB, mean %.1f samples per pixel, %.2f s\n", r.name,
+                    r.psnr, r.mean_spp, r.seconds);
+    }
+    // measured 32.78, 36.22 (mean 5.3 spp) and 37.05 dB; with the old weights the adaptive
+    // render measured 1.9 dB below uniform 32
+    EXPECT_LT(runs[1].mean_spp, 1.25 * 8);
+    EXPECT_GT(runs[1].psnr, runs[0].psnr + 2.5);
+    EXPECT_GT(runs[1].psnr, runs[2].psnr - 1.2);
+}
+
 }  // namespace

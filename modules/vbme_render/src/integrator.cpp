@@ -581,10 +581,11 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                 const double inv_spp = 1.0 / taken;
                 double dest[3];  // the difference's estimate (adaptive)
                 if (adaptive && taken > n_min) {
-                    // Fixed weights of the minimum and the later samples: the later ones are
-                    // independent of the decision to take them, so with the roulette's weight
-                    // the estimate is unbiased (up to the error-driven stopping).
-                    const double alpha = double(n_min) / spp, m = taken - n_min;
+                    // The minimum and the later samples weighed by their counts (the mean of
+                    // all samples taken); the roulette's weight on the later ones. A weight
+                    // fixed by the cap (n_min / spp) instead made the estimate rest on the
+                    // later samples alone.
+                    const double alpha = double(n_min) / taken, m = taken - n_min;
                     for (int k = 0; k < 3; ++k)
                         dest[k] = alpha * dp[k] / n_min + (1 - alpha) * later_weight * dl[k] / m;
                 } else {
