@@ -9,6 +9,8 @@ PACKAGES=(
   # vbme_core / vbme_track / vbme_inpaint / vbme_calib
   libopencv-dev libopencv-contrib-dev
   libeigen3-dev libceres-dev
+  # vbme_calib: the focal length from a photograph's EXIF
+  libexif-dev
   # vbme_render
   libembree-dev embree-tools libtbb-dev libopenexr-dev libassimp-dev
   # camera tracking (the colmap program) and video

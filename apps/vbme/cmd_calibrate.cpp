@@ -16,7 +16,7 @@ namespace {
 struct CalibrateOptions {
     std::string image, video, annotation, out, overlay;
     int frame = -1;
-    bool auto_detect = false;
+    bool auto_detect = false, no_exif = false;
     double camera_height = 0, focal = 0, focal_35mm = 0;
     std::string distortion, method = "global";
     int proposals = 0;
@@ -54,8 +54,23 @@ void runCalibrate(const CalibrateOptions& o) {
     opt.vp.focal = o.focal;
     opt.vp.method = o.method == "ransac" ? VanishingPointCalibrator::Params::RANSAC
                                          : VanishingPointCalibrator::Params::GLOBAL;
-    if (o.focal_35mm > 0)  // 35 mm equivalent: the 43.27 mm diagonal of a 36×24 mm frame
-        opt.vp.focal_prior = o.focal_35mm / 43.267 * std::hypot(image.cols, image.rows);
+    if (o.focal_35mm > 0) {  // 35 mm equivalent: the 43.27 mm diagonal of a 36×24 mm frame
+        opt.vp.focal_prior = focalFrom35mm(o.focal_35mm, image.size());
+    } else if (o.focal <= 0 && !o.image.empty() && !o.no_exif) {
+        // the photograph's own EXIF, when it has one
+        const ExifFocal ex = readExifFocal(o.image);
+        std::string source;
+        const double f = ex.focalPixels(image.size(), &source);
+        if (f > 0) {
+            opt.vp.focal_prior = f;
+            std::printf(
+                "focal prior from the EXIF of %s%s: %.1f px (%s; %g mm, %g mm 35 mm "
+                "equivalent); --focal-35mm or --no-exif to override\n",
+                o.image.c_str(),
+                ex.model.empty() ? "" : (" (" + ex.make + " " + ex.model + ")").c_str(), f,
+                source.c_str(), ex.focal_mm, ex.focal_35mm);
+        }
+    }
     opt.vp.estimate_distortion = o.distortion == "k1";
     if (opt.vp.estimate_distortion && !(ann.lines.empty() && o.auto_detect))
         CV_Error(cv::Error::StsBadArg,
@@ -144,6 +159,10 @@ void setupCalibrate(CLI::App& app) {
     app.add_option("--focal-35mm", o->focal_35mm,
                    "Focal length prior, 35 mm equivalent (e.g. from EXIF), for --auto")
         ->check(CLI::PositiveNumber);
+    app.add_flag("--no-exif", o->no_exif,
+                 "Do not take a focal length prior from the --image's EXIF (FocalLengthIn35mmFilm "
+                 "or FocalLength with the focal plane resolution), which is used by default when "
+                 "neither --focal nor --focal-35mm is given");
     app.add_option("--distortion", o->distortion,
                    "Also estimate lens distortion with --auto: 'k1' (one radial coefficient, "
                    "from the straightness of the lines); reported, not yet applied")

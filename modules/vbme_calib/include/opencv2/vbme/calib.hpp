@@ -21,5 +21,6 @@ with Ceres in the room frame (camera_tracking.hpp).
 #include "opencv2/vbme/calib/camera_tracking.hpp"
 #include "opencv2/vbme/calib/colmap.hpp"
 #include "opencv2/vbme/calib/projection.hpp"
+#include "opencv2/vbme/calib/exif.hpp"
 
 #endif
