@@ -273,6 +273,7 @@ public:
         fg_.create(size_, CV_8UC1);
         unknown_.create(size_, CV_8UC1);
         cleaned_.create(size_, CV_8UC1);
+        padded_.create(size_.height + 2, size_.width + 2, CV_8UC1);
         votes_.create(size_, CV_8SC1);
         const Disk d0 = fitDisk(m);
         prev_ = d0;
@@ -700,18 +701,48 @@ private:
         Mat fg = fg_(w), cleaned = cleaned_(w);
         const int os = oddAtMost(0.6f * radius, p_.open_size),
                   cs = oddAtMost(0.8f * radius, p_.close_size);
-        // The window is a view into full-frame buffers: BORDER_ISOLATED keeps the filters from
-        // reading the (stale) pixels around it.
+        const bool open = p_.open_size > 1 && os > 1, close = p_.close_size > 1 && cs > 1;
+        // Only the object pixels' bounding box grown by the elements' reach can change (the
+        // opening stays inside the box; the closing's dilation reaches cs/2 beyond it and its
+        // erosion reads cs/2 further): the filters run on that region alone, with the same
+        // result as on the whole window, whose other pixels stay background.
+        Rect roi = boundingRect(fg);
+        cleaned.setTo(Scalar::all(0));
+        if (roi.empty()) return;
+        const int reach = (open ? os / 2 : 0) + (close ? cs : 0) + 2;
+        roi = Rect(roi.x - reach, roi.y - reach, roi.width + 2 * reach, roi.height + 2 * reach) &
+              Rect(0, 0, w.width, w.height);
+        const Mat src = fg(roi);
+        Mat dst = cleaned(roi);
+        // The region is a view into full-frame buffers: BORDER_ISOLATED keeps the filters from
+        // reading the pixels around it.
         const int border = BORDER_CONSTANT | BORDER_ISOLATED;
-        if (p_.open_size > 1 && os > 1)
-            morphologyEx(fg, cleaned, MORPH_OPEN, element(os), Point(-1, -1), 1, border,
+        if (open)
+            morphologyEx(src, dst, MORPH_OPEN, element(os), Point(-1, -1), 1, border,
                          morphologyDefaultBorderValue());
         else
-            fg.copyTo(cleaned);
-        if (p_.close_size > 1 && cs > 1)
-            morphologyEx(cleaned, cleaned, MORPH_CLOSE, element(cs), Point(-1, -1), 1, border,
+            src.copyTo(dst);
+        if (close)
+            morphologyEx(dst, dst, MORPH_CLOSE, element(cs), Point(-1, -1), 1, border,
                          morphologyDefaultBorderValue());
-        if (p_.fill_holes) fillHoles(cleaned, cleaned);
+        if (p_.fill_holes) fillHolesInPlace(dst);
+    }
+
+    // fillHoles() on a view, with the padded buffer kept across frames.
+    void fillHolesInPlace(Mat& m) {
+        if (padded_.rows < m.rows + 2 || padded_.cols < m.cols + 2)
+            padded_.create(std::max(padded_.rows, m.rows + 2), std::max(padded_.cols, m.cols + 2),
+                           CV_8UC1);
+        Mat pad = padded_(Rect(0, 0, m.cols + 2, m.rows + 2));
+        pad.row(0).setTo(Scalar::all(0));
+        pad.row(pad.rows - 1).setTo(Scalar::all(0));
+        pad.col(0).setTo(Scalar::all(0));
+        pad.col(pad.cols - 1).setTo(Scalar::all(0));
+        Mat inner = pad(Rect(1, 1, m.cols, m.rows));
+        m.copyTo(inner);  // the cleaned pixels are 0 or 255
+        floodFill(pad, Point(0, 0), Scalar(128), nullptr, Scalar(0), Scalar(0), 4);
+        // 128: background reached from the border; 0: holes; 255: object.
+        compare(inner, Scalar(128), m, CMP_NE);
     }
 
     double selfCheck(const Mat& frame, const Mat& mask, const Rect& w, float radius) {
@@ -1187,7 +1218,7 @@ private:
     std::vector<float> hfg_, hbg_;
     std::vector<uchar> lut_;
     std::map<int, Mat> elements_;
-    Mat hsv_, fg_, unknown_, cleaned_, votes_;  // full-frame buffers; the window is a view
+    Mat hsv_, fg_, unknown_, cleaned_, votes_, padded_;  // full-frame buffers; the window is a view
     detail::DiskFitter fitter_;
     Disk prev_;
     Point2f vel_;
