@@ -166,6 +166,16 @@ void expectOracles(const Score& s, const std::vector<Truth>& truth) {
             if (after_hidden) reappear = (int)i;
         }
     }
+    // The margin: the worst visible frames.
+    double min_iou = 1, max_err = 0;
+    int at_iou = -1, at_err = -1;
+    for (size_t i = 0; i < truth.size(); ++i)
+        if (truth[i].visible >= kVisible) {
+            if (s.iou[i] < min_iou) min_iou = s.iou[i], at_iou = (int)i;
+            if (s.err[i] > max_err) max_err = s.err[i], at_err = (int)i;
+        }
+    std::printf("  worst visible frames: IoU %.3f (frame %d), centre error %.3f r (frame %d)\n",
+                min_iou, at_iou, max_err, at_err);
     EXPECT_EQ(s.visible_ok, s.visible);
     EXPECT_GE(s.mean_iou, 0.9);
     EXPECT_LE(s.mean_err, 0.1);
