@@ -422,7 +422,7 @@ public:
                                        : Rect(0, 0, size_.width, size_.height);
         Result r = track(frame, window_, pred, true);
         if (!r.found && p_.redetect) {
-            Result rd = redetect(frame, pred.radius);
+            Result rd = redetect(frame);
             if (rd.found) r = rd;
         }
         if (r.found) {
@@ -809,11 +809,10 @@ private:
 
     // Whole-frame search: every blob of object colour of a plausible size is fitted with a disk
     // and scored without the motion model; the best one above redetect_threshold wins.
-    Result redetect(const Mat& frame, float r_pred) {
+    Result redetect(const Mat& frame) {
         const Rect full(0, 0, size_.width, size_.height);
         // The expected radius: that of the last confident disk. Not extrapolated: the disks
         // found while the ball was disappearing behind something shrink faster than the ball.
-        (void)r_pred;
         const float r_ref = r_good_;
         classify(frame, full);
         clean(full, r_ref);
