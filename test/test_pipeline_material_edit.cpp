@@ -479,7 +479,7 @@ TEST(PipelineMaterialEdit, LostTrackFailsWithFrameIndex) {
             e.path().filename() != "first.png")
             ++files;
     EXPECT_EQ(files, 0);
-    // With max_lost covering the rest of the clip, the last disk is kept and it finishes.
+    // With max_lost covering the rest of the clip, it finishes; the lost frames pass through.
     p.max_lost = 3;
     std::vector<MaterialEditor::FrameResult> res;
     const PipelineReport r = runMaterialEdit(p, PipelineProgress(), &res);
@@ -488,4 +488,37 @@ TEST(PipelineMaterialEdit, LostTrackFailsWithFrameIndex) {
     ASSERT_EQ(res.size(), 8u);
     for (int i = 0; i < 8; i++)
         EXPECT_EQ(res[i].lost, i >= 5) << i;
+}
+
+// Frames where the tracker lost the ball (here it is gone from frame 5 on) pass through
+// unedited: no disk is removed or drawn where the ball was last seen, while the frames where
+// it is found are edited (the orange ball becomes blue).
+TEST(PipelineMaterialEdit, LostFramesPassThroughUnedited) {
+    vbme_test::ScratchDir dir;
+    BallClip clip;
+    clip.frames = 8;
+    clip.vanish_at = 5;
+    MaterialEditParams p = baseParams(dir);
+    p.max_lost = 3;
+    std::vector<MaterialEditor::FrameResult> res;
+    const std::vector<Mat> out = editInMemory(clip, p, &res);
+    ASSERT_EQ((int)out.size(), clip.frames);
+    ASSERT_EQ((int)res.size(), clip.frames);
+    const Point2f last = clip.center(clip.vanish_at - 1);
+    const Mat last_disk = diskMaskOf(clip.size, last, clip.radius);
+    for (int i = 0; i < clip.frames; i++) {
+        const Mat in = clip.frame(i);
+        const double inside =
+            norm(out[i], in, NORM_INF, diskMaskOf(clip.size, clip.center(i), clip.radius - 1.5f));
+        std::printf(
+            "frame %d: lost %d, max |edited - input| in the ball %.0f, at the last disk "
+            "%.0f, whole frame %.0f\n",
+            i, (int)res[i].lost, inside, norm(out[i], in, NORM_INF, last_disk),
+            norm(out[i], in, NORM_INF));
+        EXPECT_EQ(res[i].lost, i >= clip.vanish_at) << i;
+        if (i < clip.vanish_at)
+            EXPECT_GT(inside, 60) << "frame " << i << ": the ball was not edited";
+        else
+            EXPECT_EQ(norm(out[i], in, NORM_INF), 0) << "lost frame " << i << " was changed";
+    }
 }

@@ -151,11 +151,9 @@ void expectOracles(const Score& s, const std::vector<Truth>& truth) {
     for (size_t i = 0; i < truth.size(); ++i) {
         if (truth[i].visible >= kVisible) {
             EXPECT_TRUE(s.results[i].found) << "frame " << i;
-            EXPECT_LE(s.err[i], 0.5) << "frame " << i << ": the disk is not on the ball";
-            if (s.iou[i] < 0.9 || s.err[i] > 0.1)
-                std::printf(
-                    "  visible frame %zu outside IoU>=0.9 & err<=0.1r: IoU %.3f err %.3f r\n", i,
-                    s.iou[i], s.err[i]);
+            // Issue 13's per-frame oracle, on every visible frame.
+            EXPECT_GE(s.iou[i], 0.9) << "visible frame " << i;
+            EXPECT_LE(s.err[i], 0.1) << "visible frame " << i << " (centre error / r)";
         } else if (truth[i].visible <= kHidden) {
             EXPECT_FALSE(s.results[i].found) << "hidden frame " << i;
             EXPECT_LT(s.results[i].confidence, 0.5f) << "hidden frame " << i;
@@ -168,9 +166,17 @@ void expectOracles(const Score& s, const std::vector<Truth>& truth) {
             if (after_hidden) reappear = (int)i;
         }
     }
-    // Issue 13 asks IoU >= 0.9 and centre error <= 0.1 r on every visible frame; measured: all
-    // but 2 of 32 (frames 9 and 24, the box's edge beside the ball), see doc/vbme_track.md.
-    EXPECT_GE(s.visible_ok, (int)std::ceil(0.9 * s.visible));
+    // The margin: the worst visible frames.
+    double min_iou = 1, max_err = 0;
+    int at_iou = -1, at_err = -1;
+    for (size_t i = 0; i < truth.size(); ++i)
+        if (truth[i].visible >= kVisible) {
+            if (s.iou[i] < min_iou) min_iou = s.iou[i], at_iou = (int)i;
+            if (s.err[i] > max_err) max_err = s.err[i], at_err = (int)i;
+        }
+    std::printf("  worst visible frames: IoU %.3f (frame %d), centre error %.3f r (frame %d)\n",
+                min_iou, at_iou, max_err, at_err);
+    EXPECT_EQ(s.visible_ok, s.visible);
     EXPECT_GE(s.mean_iou, 0.9);
     EXPECT_LE(s.mean_err, 0.1);
     ASSERT_GE(reappear, 0);

@@ -94,7 +94,8 @@ void setupMaterialEdit(CLI::App& app) {
         "  vbme material-edit --video IN.mp4 --mask FIRST.png --material chrome --out OUT.mp4\n"
         "Materials: presets (chrome, gold, copper, silver, mirror, glass, ice, blue, red, matte, "
         "white) or a YAML/JSON file with a top-level material: map.\n"
-        "The camera is taken as static and level; a lost track stops the run (see --max-lost).");
+        "The camera is taken as static and level; a lost track stops the run, or with --max-lost "
+        "N up to N lost frames in a row pass through unedited.");
     app.add_option("--video", p.video, "Input video file, image folder or pattern")->required();
     app.add_option("--mask", p.first_mask, "8-bit mask of the object in frame 0 (255 = object)")
         ->required();
@@ -113,8 +114,8 @@ void setupMaterialEdit(CLI::App& app) {
     app.add_option("--threads", p.threads, "Worker threads (0: all cores)")
         ->check(CLI::Range(0, 1024));
     app.add_option("--max-lost", p.max_lost,
-                   "Consecutive frames the ball may be lost (the last disk is kept); more stop "
-                   "the run")
+                   "Consecutive frames the ball may be lost (hidden or not recognised; those "
+                   "frames pass through unedited); more stop the run")
         ->check(CLI::Range(0, 1000000));
     app.add_option("--inpaint", opt->inpaint,
                    "background (static camera, fast) or video (aligned neighbours, slower)")

@@ -227,6 +227,9 @@ double bhattacharyya(const std::vector<float>& a, const std::vector<float>& b) {
     return s;
 }
 
+// A disk found with at least this confidence sets the radius re-detection expects.
+constexpr float kGoodConfidence = 0.75f;
+
 int oddAtMost(float x, int cap) {
     int n = std::max(1, (int)std::floor(x));
     if (n % 2 == 0) --n;
@@ -235,7 +238,12 @@ int oddAtMost(float x, int cap) {
 
 class ObjectTrackerImpl final : public ObjectTracker {
 public:
-    explicit ObjectTrackerImpl(const Params& p) : p_(p) {}
+    explicit ObjectTrackerImpl(const Params& p) : p_(p) {
+        for (int k = 0; k < kRimRays; ++k) {
+            rim_cos_[k] = (float)std::cos(2 * CV_PI * k / kRimRays);
+            rim_sin_[k] = (float)std::sin(2 * CV_PI * k / kRimRays);
+        }
+    }
 
     void init(InputArray _frame, InputArray _mask) override {
         Mat frame = _frame.getMat(), mask = _mask.getMat();
@@ -265,9 +273,12 @@ public:
         fg_.create(size_, CV_8UC1);
         unknown_.create(size_, CV_8UC1);
         cleaned_.create(size_, CV_8UC1);
+        padded_.create(size_.height + 2, size_.width + 2, CV_8UC1);
         votes_.create(size_, CV_8SC1);
         const Disk d0 = fitDisk(m);
         prev_ = d0;
+        r_good_ = d0.radius;
+        have_prev_found_ = false;
         vel_ = Point2f(0, 0);
         dr_ = 0;
         lost_run_ = 0;
@@ -416,9 +427,11 @@ public:
         }
         if (r.found) {
             if (r.redetected || !have_prev_found_) {
+                // No velocity yet: one position does not tell how the ball moves (a ball
+                // already rolling on frame 0 must not be judged against standing still).
                 vel_ = Point2f(0, 0);
                 dr_ = 0;
-                have_velocity_ = !r.redetected;
+                have_velocity_ = false;
             } else {
                 const Point2f v = (r.disk.center - prev_.center) * (1.f / gap);
                 const float dr = (r.disk.radius - prev_.radius) / gap;
@@ -428,6 +441,7 @@ public:
             }
             have_prev_found_ = true;
             prev_ = r.disk;
+            if (r.confidence >= kGoodConfidence) r_good_ = r.disk.radius;
             lost_run_ = 0;
             if (p_.model_update_rate > 0 && r.confidence >= p_.min_update_confidence)
                 updateModel(frame, Disk(r.disk.center - Point2f((float)window_.x, (float)window_.y),
@@ -687,18 +701,48 @@ private:
         Mat fg = fg_(w), cleaned = cleaned_(w);
         const int os = oddAtMost(0.6f * radius, p_.open_size),
                   cs = oddAtMost(0.8f * radius, p_.close_size);
-        // The window is a view into full-frame buffers: BORDER_ISOLATED keeps the filters from
-        // reading the (stale) pixels around it.
+        const bool open = p_.open_size > 1 && os > 1, close = p_.close_size > 1 && cs > 1;
+        // Only the object pixels' bounding box grown by the elements' reach can change (the
+        // opening stays inside the box; the closing's dilation reaches cs/2 beyond it and its
+        // erosion reads cs/2 further): the filters run on that region alone, with the same
+        // result as on the whole window, whose other pixels stay background.
+        Rect roi = boundingRect(fg);
+        cleaned.setTo(Scalar::all(0));
+        if (roi.empty()) return;
+        const int reach = (open ? os / 2 : 0) + (close ? cs : 0) + 2;
+        roi = Rect(roi.x - reach, roi.y - reach, roi.width + 2 * reach, roi.height + 2 * reach) &
+              Rect(0, 0, w.width, w.height);
+        const Mat src = fg(roi);
+        Mat dst = cleaned(roi);
+        // The region is a view into full-frame buffers: BORDER_ISOLATED keeps the filters from
+        // reading the pixels around it.
         const int border = BORDER_CONSTANT | BORDER_ISOLATED;
-        if (p_.open_size > 1 && os > 1)
-            morphologyEx(fg, cleaned, MORPH_OPEN, element(os), Point(-1, -1), 1, border,
+        if (open)
+            morphologyEx(src, dst, MORPH_OPEN, element(os), Point(-1, -1), 1, border,
                          morphologyDefaultBorderValue());
         else
-            fg.copyTo(cleaned);
-        if (p_.close_size > 1 && cs > 1)
-            morphologyEx(cleaned, cleaned, MORPH_CLOSE, element(cs), Point(-1, -1), 1, border,
+            src.copyTo(dst);
+        if (close)
+            morphologyEx(dst, dst, MORPH_CLOSE, element(cs), Point(-1, -1), 1, border,
                          morphologyDefaultBorderValue());
-        if (p_.fill_holes) fillHoles(cleaned, cleaned);
+        if (p_.fill_holes) fillHolesInPlace(dst);
+    }
+
+    // fillHoles() on a view, with the padded buffer kept across frames.
+    void fillHolesInPlace(Mat& m) {
+        if (padded_.rows < m.rows + 2 || padded_.cols < m.cols + 2)
+            padded_.create(std::max(padded_.rows, m.rows + 2), std::max(padded_.cols, m.cols + 2),
+                           CV_8UC1);
+        Mat pad = padded_(Rect(0, 0, m.cols + 2, m.rows + 2));
+        pad.row(0).setTo(Scalar::all(0));
+        pad.row(pad.rows - 1).setTo(Scalar::all(0));
+        pad.col(0).setTo(Scalar::all(0));
+        pad.col(pad.cols - 1).setTo(Scalar::all(0));
+        Mat inner = pad(Rect(1, 1, m.cols, m.rows));
+        m.copyTo(inner);  // the cleaned pixels are 0 or 255
+        floodFill(pad, Point(0, 0), Scalar(128), nullptr, Scalar(0), Scalar(0), 4);
+        // 128: background reached from the border; 0: holes; 255: object.
+        compare(inner, Scalar(128), m, CMP_NE);
     }
 
     double selfCheck(const Mat& frame, const Mat& mask, const Rect& w, float radius) {
@@ -767,7 +811,9 @@ private:
     // and scored without the motion model; the best one above redetect_threshold wins.
     Result redetect(const Mat& frame) {
         const Rect full(0, 0, size_.width, size_.height);
-        const float r_ref = prev_.radius;
+        // The expected radius: that of the last confident disk. Not extrapolated: the disks
+        // found while the ball was disappearing behind something shrink faster than the ball.
+        const float r_ref = r_good_;
         classify(frame, full);
         clean(full, r_ref);
         makeVotes(full);
@@ -792,7 +838,9 @@ private:
             const float rad = std::sqrt(b.first / (float)CV_PI);
             Result r;
             r.disk = fitter_.fit(Disk(c, rad), fp);
-            if (edge_on_) r.disk = refineOnEdges(frame, r.disk, r_ref, fp);
+            // The ball may have changed size while lost: the silhouette is bounded by the
+            // radius the motion model predicts.
+            if (edge_on_) r.disk = refineOnEdges(frame, r.disk, r_ref, fp, 0.6f, 1.5f);
             score(frame, full, r, nullptr);
             // Consistency with the last good disk carried on by the motion model, loosely (the
             // ball may have changed course while hidden): size, and position within a spread
@@ -814,105 +862,205 @@ private:
         return best;
     }
 
-    // Rim points: along K rays from the disk's centre, the strongest colour edge (L1 of the
-    // BGR difference across 2 pixels) between lo and hi times the radius.
-    int rimPoints(const Mat& frame, const Disk& d, float lo, float hi, std::vector<Point2f>& pts,
-                  std::vector<float>& strength) const {
-        const int K = 48;
-        pts.clear();
-        strength.clear();
+    // Rim candidates: along K rays from the disk's centre, the local maxima of the colour edge
+    // strength (L1 of the summed-BGR difference across 2 pixels) between lo and hi times the
+    // radius, the strongest kRimCands of them down to a third of the ray's strongest. Several
+    // per ray: beside a ball, a darker object (a box's edge, the shadow's far side) can give a
+    // stronger edge than the ball's own silhouette, and the consensus below picks between them.
+    static constexpr int kRimRays = 48, kRimCands = 3;
+    struct RimCand {
+        Point2f p;
+        float strength = 0;
+    };
+    void rimCandidates(const Mat& frame, const Disk& d, float lo, float hi,
+                       std::vector<RimCand>& cands, std::vector<int>& count) const {
+        cands.assign(kRimRays * kRimCands, RimCand());
+        count.assign(kRimRays, 0);
         const int s0 = std::max(1, (int)std::floor(lo * d.radius)),
                   s1 = std::max(s0 + 2, (int)std::ceil(hi * d.radius));
-        std::vector<float> prof(s1 + 3);
-        for (int k = 0; k < K; ++k) {
-            const float a = float(2 * CV_PI * k / K), ca = std::cos(a), sa = std::sin(a);
+        float prof[512], grad[512];
+        if (s1 + 3 > 512) return;
+        for (int k = 0; k < kRimRays; ++k) {
+            const float ca = rim_cos_[k], sa = rim_sin_[k];
             bool inside = true;
             for (int s = s0 - 1; s <= s1 + 1; ++s) {
-                const int x = cvRound(d.center.x + s * ca), y = cvRound(d.center.y + s * sa);
-                if (x < 0 || y < 0 || x >= size_.width || y >= size_.height) {
+                // Summed channels, bilinear between the four nearest pixels.
+                const float fx = d.center.x + s * ca, fy = d.center.y + s * sa;
+                const int x = (int)std::floor(fx), y = (int)std::floor(fy);
+                if (x < 0 || y < 0 || x + 1 >= size_.width || y + 1 >= size_.height) {
                     inside = false;
                     break;
                 }
-                const Vec3b c = frame.ptr<Vec3b>(y)[x];
-                prof[s - s0 + 1] = c[0] + (float)c[1] + c[2];  // summed channels
+                const float ax = fx - x, ay = fy - y;
+                const uchar* c0 = frame.ptr<uchar>(y) + 3 * x;
+                const uchar* c1 = frame.ptr<uchar>(y + 1) + 3 * x;
+                const float t =
+                    (1 - ax) * float(c0[0] + c0[1] + c0[2]) + ax * float(c0[3] + c0[4] + c0[5]);
+                const float b =
+                    (1 - ax) * float(c1[0] + c1[1] + c1[2]) + ax * float(c1[3] + c1[4] + c1[5]);
+                prof[s - s0 + 1] = (1 - ay) * t + ay * b;
             }
             if (!inside) continue;
-            float best = 0;
-            int best_s = -1;
-            for (int s = s0; s <= s1; ++s) {
-                const int i = s - s0 + 1;
-                const float g = std::abs(prof[i + 1] - prof[i - 1]);
-                if (g > best) {
-                    best = g;
-                    best_s = s;
-                }
+            float gmax = 0;
+            for (int i = 1; i <= s1 - s0 + 1; ++i) {
+                grad[i] = std::abs(prof[i + 1] - prof[i - 1]);
+                gmax = std::max(gmax, grad[i]);
             }
-            if (best_s < 0) continue;
-            pts.emplace_back(d.center.x + best_s * ca, d.center.y + best_s * sa);
-            strength.push_back(best);
+            if (gmax <= 0) continue;
+            RimCand* out = &cands[k * kRimCands];
+            int& n = count[k];
+            const int last = s1 - s0 + 1;
+            for (int i = 1; i <= last; ++i) {
+                const float g = grad[i];
+                if (g < gmax / 3) continue;
+                if ((i > 1 && g < grad[i - 1]) || (i < last && g < grad[i + 1])) continue;
+                // Keep the kRimCands strongest peaks, ordered by strength.
+                int j = n < kRimCands ? n++ : kRimCands - 1;
+                if (j == kRimCands - 1 && n == kRimCands && out[j].strength >= g) continue;
+                while (j > 0 && out[j - 1].strength < g) {
+                    out[j] = out[j - 1];
+                    --j;
+                }
+                // Sub-sample peak: the vertex of the parabola through the peak and its
+                // neighbours.
+                float off = 0;
+                if (i > 1 && i < last) {
+                    const float l = grad[i - 1], r = grad[i + 1], den = l - 2 * g + r;
+                    if (den < 0) off = std::max(-0.5f, std::min(0.5f, 0.5f * (l - r) / den));
+                }
+                const float s = float(i - 1 + s0) + off;
+                out[j].p = Point2f(d.center.x + s * ca, d.center.y + s * sa);
+                out[j].strength = g;
+            }
         }
-        return K;
     }
 
-    // The disk moved onto the ball's silhouette: a robust least-squares circle through the rim
-    // points (Kåsa's algebraic fit, then the points farther than 1.5 px + 8 % of r from the
-    // circle dropped, twice). Kept only if most rays agree and the radius stays in bounds.
-    Disk refineOnEdges(const Mat& frame, const Disk& start, float r_pred,
-                       const DiskFitParams& fp) const {
-        Disk d = start;
-        std::vector<Point2f> pts;
-        std::vector<float> str;
-        for (int pass = 0; pass < 2; ++pass) {
-            const float lo = pass == 0 ? 0.5f : 0.75f, hi = pass == 0 ? 1.6f : 1.25f;
-            Disk probe = d;
-            if (pass == 0) probe.radius = std::max(d.radius, r_pred);
-            const int K = rimPoints(frame, probe, lo, hi, pts, str);
-            if ((int)pts.size() < K / 2) return start;
-            // Weak edges (below a third of the median strength) do not vote.
-            std::vector<float> sorted = str;
-            std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-            const float weak = sorted[sorted.size() / 2] / 3;
-            std::vector<char> use(pts.size());
-            for (size_t i = 0; i < pts.size(); ++i)
-                use[i] = str[i] >= weak;
-            Disk c = d;
-            for (int it = 0; it < 3; ++it) {
-                // Kåsa: minimise Σ (x² + y² + D x + E y + F)², centred for conditioning.
-                Matx33d A = Matx33d::zeros();
-                Vec3d bb(0, 0, 0);
-                int n = 0;
-                for (size_t i = 0; i < pts.size(); ++i) {
-                    if (!use[i]) continue;
-                    const double x = pts[i].x - probe.center.x, y = pts[i].y - probe.center.y;
-                    const Vec3d row(x, y, 1);
-                    A += row * row.t();
-                    bb += row * (-(x * x + y * y));
-                    ++n;
+    // The disk moved onto the ball's silhouette: a consensus circle through the rim candidates
+    // (circles through three candidates of three rays, the one that most rays agree with),
+    // then a least-squares circle (Kåsa's algebraic fit) through each agreeing ray's nearest
+    // candidate, twice. Kept only if most rays agree and the radius stays in bounds.
+    Disk refineOnEdges(const Mat& frame, const Disk& start, float r_pred, const DiskFitParams& fp,
+                       float r_lo = 0.7f, float r_hi = 1.4f) const {
+        (void)fp;  // the colour fit's radius bounds may have dragged it down with a shaded side
+                   // the colours miss: the silhouette is bounded by the prediction instead
+        const int K = kRimRays;
+        Disk probe = start;
+        probe.radius = std::max(start.radius, r_pred);
+        std::vector<RimCand>& cands = rim_cands_;
+        std::vector<int>& count = rim_count_;
+        rimCandidates(frame, probe, 0.5f, 1.6f, cands, count);
+        int rays = 0;
+        for (int k = 0; k < K; ++k)
+            rays += count[k] > 0;
+        if (rays < K / 2) return start;
+        const float rmin = r_lo * r_pred, rmax = r_hi * r_pred;
+        const float max_shift = std::max(start.radius, r_pred);
+        auto tolOf = [](float r) { return 1.5f + 0.08f * r; };
+        // Rays agreeing with circle c (a candidate within the tolerance), or -1 if c is out of
+        // bounds.
+        auto agree = [&](const Disk& c) {
+            if (!(c.radius >= rmin && c.radius <= rmax)) return -1;
+            if (norm(c.center - start.center) > max_shift) return -1;
+            const float tol = tolOf(c.radius);
+            int n = 0;
+            for (int k = 0; k < K; ++k)
+                for (int j = 0; j < count[k]; ++j) {
+                    const RimCand& q = cands[k * kRimCands + j];
+                    if (std::abs((float)norm(q.p - c.center) - c.radius) <= tol) {
+                        ++n;
+                        break;
+                    }
                 }
-                if (n < K / 3) return start;
-                Vec3d sol;
-                if (!solve(Mat(A), Mat(bb), sol, DECOMP_SVD)) return start;
-                const double cx = -sol[0] / 2, cy = -sol[1] / 2;
-                const double r2 = cx * cx + cy * cy - sol[2];
-                if (!(r2 > 0)) return start;
-                c = Disk(Point2f(float(cx + probe.center.x), float(cy + probe.center.y)),
-                         (float)std::sqrt(r2));
-                const float tol = 1.5f + 0.08f * c.radius;
-                for (size_t i = 0; i < pts.size(); ++i)
-                    use[i] = str[i] >= weak &&
-                             std::abs((float)norm(pts[i] - c.center) - c.radius) <= tol;
+            return n;
+        };
+        // Hypotheses: the rays' strongest candidates on three rays a third of a turn apart
+        // (every rotation), and random triples of candidates (fixed seed: deterministic).
+        Disk best;
+        int best_n = -1;
+        auto tryTriple = [&](const Point2f& a, const Point2f& b, const Point2f& c) {
+            const double ax = a.x, ay = a.y, bx = b.x, by = b.y, cx = c.x, cy = c.y;
+            const double dd = 2 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by));
+            if (std::abs(dd) < 1e-6) return;
+            const double a2 = ax * ax + ay * ay, b2 = bx * bx + by * by, c2 = cx * cx + cy * cy;
+            const double ux = (a2 * (by - cy) + b2 * (cy - ay) + c2 * (ay - by)) / dd;
+            const double uy = (a2 * (cx - bx) + b2 * (ax - cx) + c2 * (bx - ax)) / dd;
+            const Disk h(Point2f((float)ux, (float)uy),
+                         (float)std::sqrt((ax - ux) * (ax - ux) + (ay - uy) * (ay - uy)));
+            const int n = agree(h);
+            if (n > best_n) {
+                best_n = n;
+                best = h;
             }
-            int inl = 0;
-            for (char u : use)
-                inl += u;
-            // The colour fit's radius bounds may have dragged it down with a shaded side the
-            // colours miss: the silhouette is bounded by the prediction instead.
-            (void)fp;
-            if (c.radius < 0.7f * r_pred || c.radius > 1.4f * r_pred) return start;
-            if (norm(c.center - start.center) > 1.0 * std::max(start.radius, r_pred)) return start;
-            d = c;
+        };
+        for (int k = 0; k < K / 3; ++k) {
+            const int a = k, b = k + K / 3, c = k + 2 * K / 3;
+            if (count[a] && count[b] && count[c])
+                tryTriple(cands[a * kRimCands].p, cands[b * kRimCands].p, cands[c * kRimCands].p);
         }
-        return d;
+        RNG rng(0x5eed);
+        for (int it = 0; it < 120; ++it) {
+            int ks[3], found = 0;
+            for (int tries = 0; tries < 12 && found < 3; ++tries) {
+                const int k = rng.uniform(0, K);
+                bool dup = count[k] == 0;
+                for (int j = 0; j < found; ++j)
+                    dup = dup || std::abs(ks[j] - k) < 4 || std::abs(ks[j] - k) > K - 4;
+                if (!dup) ks[found++] = k;
+            }
+            if (found < 3) continue;
+            tryTriple(cands[ks[0] * kRimCands + rng.uniform(0, count[ks[0]])].p,
+                      cands[ks[1] * kRimCands + rng.uniform(0, count[ks[1]])].p,
+                      cands[ks[2] * kRimCands + rng.uniform(0, count[ks[2]])].p);
+        }
+        if (best_n < K / 2) return start;
+        // Least squares: the strongest edge of every ray near the consensus circle (between
+        // 0.8 and 1.2 times its radius; edges below a third of the median strength do not
+        // vote), weighted by its strength (a motion-blurred side has a weak, broad edge whose
+        // peak noise moves; the sharp sides hold the circle), points farther than the
+        // tolerance from the fit dropped, three times.
+        Disk c = best;
+        const Disk near = c;
+        rimCandidates(frame, near, 0.8f, 1.2f, cands, count);
+        std::vector<float> str;
+        for (int k = 0; k < K; ++k)
+            if (count[k]) str.push_back(cands[k * kRimCands].strength);
+        if ((int)str.size() < K / 2) return start;
+        std::nth_element(str.begin(), str.begin() + str.size() / 2, str.end());
+        const float weak = str[str.size() / 2] / 3;
+        bool use[kRimRays];
+        for (int k = 0; k < K; ++k)
+            use[k] = count[k] && cands[k * kRimCands].strength >= weak;
+        for (int it = 0; it < 3; ++it) {
+            Matx33d A = Matx33d::zeros();
+            Vec3d bb(0, 0, 0);
+            int n = 0;
+            for (int k = 0; k < K; ++k) {
+                if (!use[k]) continue;
+                // Kåsa: minimise Σ (x² + y² + D x + E y + F)², centred for conditioning.
+                const Point2f& q = cands[k * kRimCands].p;
+                const double x = q.x - near.center.x, y = q.y - near.center.y;
+                const Vec3d row(x, y, 1);
+                const double wgt = cands[k * kRimCands].strength;
+                A += row * row.t() * wgt;
+                bb += row * (-(x * x + y * y)) * wgt;
+                ++n;
+            }
+            if (n < K / 3) return start;
+            Vec3d sol;
+            if (!solve(Mat(A), Mat(bb), sol, DECOMP_SVD)) return start;
+            const double cx = -sol[0] / 2, cy = -sol[1] / 2;
+            const double r2 = cx * cx + cy * cy - sol[2];
+            if (!(r2 > 0)) return start;
+            c = Disk(Point2f(float(cx + near.center.x), float(cy + near.center.y)),
+                     (float)std::sqrt(r2));
+            const float tol = tolOf(c.radius);
+            for (int k = 0; k < K; ++k)
+                use[k] = count[k] && cands[k * kRimCands].strength >= weak &&
+                         std::abs((float)norm(cands[k * kRimCands].p - c.center) - c.radius) <= tol;
+        }
+        if (!(c.radius >= rmin && c.radius <= rmax)) return start;
+        if (norm(c.center - start.center) > max_shift) return start;
+        return c;
     }
 
     // Median colour contrast across the rim (BGR L1 / 3) between 0.7 r and 1.35 r.
@@ -1069,14 +1217,18 @@ private:
     std::vector<float> hfg_, hbg_;
     std::vector<uchar> lut_;
     std::map<int, Mat> elements_;
-    Mat hsv_, fg_, unknown_, cleaned_, votes_;  // full-frame buffers; the window is a view
+    Mat hsv_, fg_, unknown_, cleaned_, votes_, padded_;  // full-frame buffers; the window is a view
     detail::DiskFitter fitter_;
     Disk prev_;
     Point2f vel_;
+    float r_good_ = 0;  // radius of the last disk found with kGoodConfidence
     float dr_ = 0, rim_ref_ = 0, fill_ref_ = 1, surround_ref_ = 1;
     bool have_velocity_ = false, have_prev_found_ = false, edge_on_ = false;
     int lost_run_ = 0;
     Rect window_;
+    float rim_cos_[kRimRays], rim_sin_[kRimRays];
+    mutable std::vector<RimCand> rim_cands_;
+    mutable std::vector<int> rim_count_;
 };
 
 }  // namespace

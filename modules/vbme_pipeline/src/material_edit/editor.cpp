@@ -73,7 +73,12 @@ public:
         if (it.lost) report_.frames_lost++;
         {
             ScopedTimer t(sec(SHAPE));
-            objectHole(size_, it.center, it.radius, p_.hole_margin, it.hole);
+            // A lost frame keeps its pixels: the tracker does not know where the object is (it
+            // may be hidden), so neither removing nor drawing a disk would be right.
+            if (it.lost)
+                it.hole = Mat::zeros(size_, CV_8UC1);
+            else
+                objectHole(size_, it.center, it.radius, p_.hole_margin, it.hole);
             it.frame = frame;
         }
         {
@@ -101,6 +106,20 @@ public:
         }
         Point2f c = it.center;
         float r = it.radius;
+        if (it.lost) {
+            // The input frame passes through unedited (nothing was removed from it).
+            FrameResult res;
+            res.index = it.index;
+            res.lost = true;
+            res.disk = Vec3f(c.x, c.y, r);
+            results_.push_back(res);
+            edited.assign(it.frame);
+            if (background.needed()) background.assign(filled);
+            if (hole.needed()) hole.assign(it.hole);
+            if (environment.needed()) environment.release();
+            finishFrame();
+            return true;
+        }
         {
             ScopedTimer t(sec(ENVIRONMENT));
             linearize(filled, bg_lin_, p_.response);
@@ -163,12 +182,7 @@ public:
             else
                 environment.assign(eq);
         }
-        report_.frames_processed++;
-        report_.total_seconds = 0;  // the editor's own time: the sum of its stages
-        for (const auto& st : report_.seconds)
-            report_.total_seconds += st.second;
-        report_.setFigure("pixels_temporal", fill_.temporal);
-        report_.setFigure("pixels_exemplar", fill_.exemplar);
+        finishFrame();
         return true;
     }
 
@@ -177,6 +191,15 @@ public:
 
 private:
     double& sec(Stage s) { return report_.seconds[s].second; }
+
+    void finishFrame() {
+        report_.frames_processed++;
+        report_.total_seconds = 0;  // the editor's own time: the sum of its stages
+        for (const auto& st : report_.seconds)
+            report_.total_seconds += st.second;
+        report_.setFigure("pixels_temporal", fill_.temporal);
+        report_.setFigure("pixels_exemplar", fill_.exemplar);
+    }
 
     MaterialEditParams p_;
     Ptr<EnvironmentMap> env_;

@@ -30,8 +30,9 @@ namespace material_edit {
 
 // ---- tracking.cpp
 
-/** The object's disk in each frame: ObjectTracker from the frame-0 mask; a lost frame keeps
-the last disk (frame 0: the disk fitted to the mask), more than max_lost in a row throw. */
+/** The object's disk in each frame: ObjectTracker from the frame-0 mask; a lost frame returns
+the last disk (frame 0: the disk fitted to the mask) with lost set (the editor passes that
+frame through unedited), more than max_lost in a row throw. */
 class ObjectTrack {
 public:
     ObjectTrack(const Mat& first_mask, int max_lost);

@@ -27,8 +27,8 @@ Disk ObjectTrack::update(const Mat& frame, int index, bool& lost) {
                      format("material-edit: the object was lost at frame %d (tracking "
                             "confidence %.2f below %.2f); nothing was written. Check "
                             "that the object stays in view and keeps its colour, or "
-                            "allow short losses with max_lost (--max-lost N keeps the "
-                            "last disk for up to N frames)",
+                            "allow short losses with max_lost (--max-lost N lets up to "
+                            "N lost frames in a row pass through unedited)",
                             index, res.confidence, tracker_->params().lost_threshold));
     }
     return last_good_;

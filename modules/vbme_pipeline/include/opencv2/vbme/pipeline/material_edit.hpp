@@ -70,9 +70,10 @@ struct CV_EXPORTS MaterialEditParams {
                                                          //!< towards the light (camera coordinates:
                                                          //!< x right, y down, z forward), non-zero
     double focal = 0;  //!< focal length in pixels (0: 60° horizontal field of view)
-    /** Consecutive frames the tracker may lose the object; the last disk is kept meanwhile.
-    More consecutive lost frames stop the edit with an error naming the frame (default 0: any
-    lost frame is an error, since a kept disk would leave the real object visible). */
+    /** Consecutive frames the tracker may lose the object (hidden, or not recognised); those
+    frames pass through unedited (MaterialEditor::FrameResult::lost). More consecutive lost
+    frames stop the edit with an error naming the frame (default 0: any lost frame is an
+    error). */
     int max_lost = 0;
     MaterialEditInpaint inpaint = MATERIAL_EDIT_INPAINT_BACKGROUND;  //!< how the hole is filled
     /** Frames on each side that vote for the background fill (at least 1 is used); also the
@@ -106,8 +107,9 @@ struct CV_EXPORTS MaterialEditParams {
 /** @brief The material edit of one video as an object fed frames in order and giving the
 edited frames back (thesis chapter 4, @cite Khan2006).
 
-Per frame: the object marked in frame 0 is tracked (ObjectTracker; a lost frame keeps the last
-disk, up to MaterialEditParams::max_lost in a row), its shape recovered (sphere normals over
+Per frame: the object marked in frame 0 is tracked (ObjectTracker; a frame where it is lost,
+up to MaterialEditParams::max_lost in a row, passes through unedited: nothing removed, nothing
+drawn), its shape recovered (sphere normals over
 the disk), removed (ConsensusInpainter over ±lookahead frames), its disk refined against the
 filled background (refineDisk()), the lighting fitted to its own shading (fitLighting()), the
 environment built from the filled frame (imageDiskToEnvironment()) unless one is given, and the
@@ -131,10 +133,11 @@ class CV_EXPORTS MaterialEditor {
 public:
     /** @brief What the editor measured on one frame. */
     struct CV_EXPORTS FrameResult {
-        int index = 0;       //!< frame index (0 = first pushed frame)
-        bool lost = false;   //!< the tracker lost the object (the last disk was kept)
-        Vec3f disk;          //!< disk used for the edit (cx, cy, r) in pixels, after refinement
-        Vec3d to_light;      //!< key light direction used (camera coordinates, unit)
+        int index = 0;      //!< frame index (0 = first pushed frame)
+        bool lost = false;  //!< the tracker lost the object: the frame passed through unedited
+        Vec3f disk;      //!< disk used for the edit (cx, cy, r) in pixels, after refinement (when
+                         //!< lost: the last disk found, not used)
+        Vec3d to_light;  //!< key light direction used (camera coordinates, unit)
         double fit_rms = 0;  //!< RMS residual of the lighting fit (linear)
         Vec3d albedo;        //!< estimated albedo of the original object (RGB)
     };

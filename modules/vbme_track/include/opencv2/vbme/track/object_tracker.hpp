@@ -119,8 +119,11 @@ public:
         /** Confidence from colour and shape evidence (fill, surroundings, rim edges, motion);
         false: the thesis's IoU of the disk with the cleaned object pixels. */
         bool evidence_confidence = true;
-        /** Move the colour-fitted disk onto the ball's silhouette: a robust circle through the
-        strongest colour edges along rays from its centre (kept when most rays agree). */
+        /** Move the colour-fitted disk onto the ball's silhouette: along rays from its centre,
+        a few colour-edge candidates each; the circle most rays agree with (RANSAC-style
+        consensus @cite Fischler1981), then a strength-weighted least-squares circle
+        @cite Kasa1976 through each ray's strongest edge near it (kept when most rays agree).
+        Used on a clip only when it improves frame 0's disk. */
         bool edge_refine = true;
         bool redetect = true;             //!< when lost, search the whole frame and resume
         float redetect_threshold = 0.6f;  //!< confidence needed to resume after a loss
