@@ -204,7 +204,6 @@ FaceObservation ExposureEstimator::observe(const Mat& frame, const Camera& cam) 
         log(max(tex, 1e-6f), lg);
         out.log[f] = lg;
         out.ok[f] = ok;
-        out.linear[f] = tex;
     }
     return out;
 }
@@ -250,22 +249,22 @@ std::vector<Vec3d> ExposureEstimator::alignFrames(const std::vector<FaceObservat
                 gains[i][c] = std::exp(x.at<double>(i - 1, c));
     }
     // the model: the mean of the normalised frames
-    std::map<std::string, Mat> count;
+    std::map<std::string, Mat> sum, count;
     for (int i = 0; i < n; ++i)
-        for (const auto& kv : obs[i].linear) {
-            Mat& m = model_.linear[kv.first];
+        for (const auto& kv : obs[i].log) {
+            Mat& m = sum[kv.first];
             Mat& cnt = count[kv.first];
             if (m.empty()) {
                 m = Mat::zeros(kv.second.size(), CV_32FC3);
                 cnt = Mat::zeros(kv.second.size(), CV_32F);
             }
             Mat norm_tex;
-            multiply(kv.second, Scalar(1 / gains[i][0], 1 / gains[i][1], 1 / gains[i][2]),
-                     norm_tex);
+            exp(kv.second, norm_tex);
+            multiply(norm_tex, Scalar(1 / gains[i][0], 1 / gains[i][1], 1 / gains[i][2]), norm_tex);
             add(m, norm_tex, m, obs[i].ok.at(kv.first));
             add(cnt, Scalar(1), cnt, obs[i].ok.at(kv.first));
         }
-    for (auto& kv : model_.linear) {
+    for (auto& kv : sum) {
         const Mat& cnt = count[kv.first];
         Mat c3;
         merge(std::vector<Mat>(3, max(cnt, 1.f)), c3);

@@ -110,13 +110,13 @@ Camera pathCamera(const CameraPath& path, int i, const Scene& scene);
 
 // ------------------------------------------------------------------ exposure (exposure.cpp)
 
-/** A frame compared with the room: per face it sees, the frame's linear radiance rectified onto
-the face at the estimation size, its logarithm, and the texels usable for comparison (seen, not
-clipped, within the reliable range, away from the objects' influence and the proxies). */
+/** A frame compared with the room: per face it sees, the logarithm of the frame's linear
+radiance rectified onto the face at the estimation size, and the texels usable for comparison
+(seen, not clipped, within the reliable range, away from the objects' influence and the
+proxies). */
 struct FaceObservation {
-    std::map<std::string, Mat> linear;  //!< CV_32FC3
-    std::map<std::string, Mat> log;     //!< CV_32FC3, log(linear)
-    std::map<std::string, Mat> ok;      //!< CV_8U, 255 where usable
+    std::map<std::string, Mat> log;  //!< CV_32FC3, log of the linear radiance
+    std::map<std::string, Mat> ok;   //!< CV_8U, 255 where usable
 };
 
 /** CV_8U mask, 255 where the inserted objects (their box grown by its size, down to the floor:
