@@ -73,9 +73,6 @@ Insertion insert(const std::vector<Mat>& plate, const CameraPath& path,
     ip.work = dir + "/work";
     ip.spp = 8;
     ip.exposure = mode;
-    // the scene's true light powers: the white point's error (issue 21's "remaining 4 %",
-    // PipelineInsertBlender) would hide the exposure's
-    ip.white = 0;
     Insertion r;
     r.prep = prepareInsertion(ip, PipelineProgress(), &r.report);
     const int64 t0 = getTickCount();
@@ -137,7 +134,7 @@ TEST(PipelineInsertExposure, GainsFollowTheCameraAndTheObjectWithThem) {
     fx.wb_amplitude = 0.06;  // red +6 %, blue −6 % at frame 0, the opposite at 6
     std::vector<Mat> plate_fx(n), truth_fx(n);
     // relative to frame 0's, so that frame 0 (the annotated frame, the room model's exposure)
-    // is Blender's and the scene's true light powers (white = 0) stay true
+    // is Blender's and the scene's (true) light powers stay true
     const Vec3d a0 = cameraEffectGains(fx, 0);
     auto applied = [&](int i) {
         const Vec3d a = cameraEffectGains(fx, i);
