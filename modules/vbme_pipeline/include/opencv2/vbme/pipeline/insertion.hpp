@@ -183,7 +183,7 @@ twice when its container's frame count was wrong; camera tracking decodes it on 
 @param report if not null, receives frames_total, work, the stages' seconds and the figures
 `white_scale`, `prepared_reused`, `light<i>_scale_{r,g,b}`, the gains `gain_<i>_{b,g,r}` of
 every frame i (PreparedInsertion::gains) and `exposure_texels_min` (the fewest room texels a
-frame's gain was estimated from; 0 when off or when some frame had too few). */
+frame's gain was estimated from; below 30 that frame took its neighbours' fit; 0 when off). */
 CV_EXPORTS PreparedInsertion prepareInsertion(const InsertionParams& p,
                                               const PipelineProgress& progress = PipelineProgress(),
                                               PipelineReport* report = nullptr);
