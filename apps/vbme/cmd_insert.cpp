@@ -96,16 +96,17 @@ void runInsert(InsertOptions& o) {
                     r.figure(cv::format("light%d_scale_r", i)),
                     r.figure(cv::format("light%d_scale_g", i)),
                     r.figure(cv::format("light%d_scale_b", i)));
-    if (o.p.exposure == cv::vbme::InsertionParams::EXPOSURE_AUTO && r.frames_total > 0) {
+    if (o.p.exposure == cv::vbme::InsertionParams::EXPOSURE_AUTO) {
         double lo = 1e9, hi = 0;
-        for (int i = 0; i < r.frames_total; ++i)
-            for (char c : {'b', 'g', 'r'}) {
-                const double g = r.figure(cv::format("gain_%d_%c", i, c), 1);
-                lo = std::min(lo, g);
-                hi = std::max(hi, g);
+        for (const auto& kv : r.figures)  // gain_<i>_<c>: one pass, however long the video
+            if (kv.first.compare(0, 5, "gain_") == 0) {
+                lo = std::min(lo, kv.second);
+                hi = std::max(hi, kv.second);
             }
-        std::printf("exposure: frame gains %.3f … %.3f against frame 0 (per frame in report.yml)\n",
-                    lo, hi);
+        if (hi > 0)
+            std::printf(
+                "exposure: frame gains %.3f … %.3f against frame 0 (per frame in report.yml)\n", lo,
+                hi);
     }
     if (r.video_written) {
         std::printf("written: %s (report %s/report.yml)\n", o.p.out.c_str(), r.work.c_str());
