@@ -177,6 +177,12 @@ TEST(PipelineInsertExposure, GainsFollowTheCameraAndTheObjectWithThem) {
     EXPECT_LT(worst_clean, 0.01);
     EXPECT_GT(worst_off, 0.15);  // the oracle can fail: no estimate is far off
 
+    // to look at (kept with VBME_KEEP_TEST_FILES=1): truth | auto | off, per frame
+    for (size_t k = 0; k < frames.size(); ++k) {
+        Mat row;
+        hconcat(std::vector<Mat>{truth_fx[frames[k]], on.composites[k], off.composites[k]}, row);
+        imwrite(tmp / format("truth_auto_off_%02d.png", frames[k]), row);
+    }
     const double p_on = regionPsnrOver(on.composites, plate_fx, truth_fx, frames);
     const double p_off = regionPsnrOver(off.composites, plate_fx, truth_fx, frames);
     const double p_clean = regionPsnrOver(clean.composites, plate, truth, frames);
