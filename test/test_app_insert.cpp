@@ -82,9 +82,10 @@ std::string cmd(const Inputs& in, const std::string& out, const std::string& ext
 TEST(AppInsert, HelpListsEveryOption) {
     const auto r = run(std::string(VBME_EXE) + " insert --help");
     EXPECT_EQ(r.code, 0) << r.output;
-    for (const char* opt : {"--video", "--scene", "--cameras", "--out", "--place", "--spp",
-                            "--frames", "--work", "--keep-exr", "--texture-mode", "--albedo",
-                            "--lights", "--per-frame-gain", "--threads", "--force", "--quiet"})
+    for (const char* opt :
+         {"--video", "--scene", "--cameras", "--out", "--place", "--spp", "--frames", "--work",
+          "--keep-exr", "--texture-mode", "--albedo", "--lights", "--per-frame-gain", "--exposure",
+          "--exposure-smooth", "--threads", "--force", "--quiet"})
         EXPECT_NE(r.output.find(opt), std::string::npos) << opt;
 }
 
@@ -92,8 +93,9 @@ TEST(AppInsert, UsageErrorsExitTwo) {
     vbme_test::ScratchDir dir;
     const Inputs in = makeInputs(dir, "ok", Size(64, 48), Size(64, 48), 2, 2);
     const std::string out = dir / "out.mkv";
-    for (const char* bad : {"--frames 2-3", "--frames a:b", "--frames 3:1", "--place 12",
-                            "--place abc,4", "--lights magic", "--spp 0"}) {
+    for (const char* bad :
+         {"--frames 2-3", "--frames a:b", "--frames 3:1", "--place 12", "--place abc,4",
+          "--lights magic", "--spp 0", "--exposure manual", "--exposure-smooth -1"}) {
         const auto r = run(cmd(in, out, bad));
         EXPECT_EQ(r.code, 2) << bad << ": " << r.output;
         EXPECT_FALSE(fs::exists(out)) << bad;
@@ -148,6 +150,7 @@ TEST(AppInsert, SmallRunWritesVideoAndRefusesOverwrite) {
     EXPECT_FALSE(fs::exists(out));
     r = run(cmd(in, out, "--lights none --albedo retinex --spp 2 --frames=1:"));
     EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("exposure: frame gains"), std::string::npos) << r.output;
     ASSERT_TRUE(fs::exists(out));
     EXPECT_TRUE(fs::exists(dir / "out_work/report.yml"));
     VideoReader v(out);

@@ -4,6 +4,8 @@
 // the true frame-0 scene (test/data/insertion_blender, scripts/blender/insertion_clip.py).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -131,6 +133,15 @@ TEST(PipelineInsertBlender, TrueCamerasBeatTheInputAgainstCyclesTruth) {
     // meets the floor); 23.33 dB while the white point scaled the exact lights by 0.56
     EXPECT_GT(p_out, 30.0);
     EXPECT_GT(p_out, p_add + 0.5);
+    // on clean footage the exposure gains (on by default) stay 1
+    double worst_gain = 0;
+    for (int i = 0; i < rep.frames_total; ++i)
+        for (char c : {'b', 'g', 'r'})
+            worst_gain =
+                std::max(worst_gain, std::abs(rep.figure(format("gain_%d_%c", i, c), -1) - 1));
+    std::printf("exposure gains on the clean clip (%d frames): worst |gain - 1| %.2f %%\n",
+                rep.frames_total, 100 * worst_gain);
+    EXPECT_LT(worst_gain, 0.01);
     EXPECT_GT(p_out, p_in + 3);
     EXPECT_GT(p_out, p_off + 1.5);
 }

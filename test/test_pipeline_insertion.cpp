@@ -297,6 +297,8 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
     a.lights = InsertionParams::LIGHTS_HILL_CLIMB;
     a.white = 0.7;
     a.shadows = CompositeParams::SHADOWS_ADDITIVE;
+    a.exposure = InsertionParams::EXPOSURE_OFF;
+    a.exposure_smooth = 5;
     a.first = 3;
     a.end = 9;
     FileStorage w(".yml", FileStorage::WRITE | FileStorage::MEMORY);
@@ -317,6 +319,9 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
     EXPECT_EQ(b.white, 0.7);
     EXPECT_EQ(b.shadows, CompositeParams::SHADOWS_ADDITIVE);
     EXPECT_EQ(InsertionParams().shadows, CompositeParams::SHADOWS_RATIO);
+    EXPECT_EQ(b.exposure, InsertionParams::EXPOSURE_OFF);
+    EXPECT_EQ(b.exposure_smooth, 5);
+    EXPECT_NE(text.find("exposure: off"), std::string::npos) << text;
     EXPECT_EQ(b.first, 3);
     EXPECT_EQ(b.end, 9);
     EXPECT_NO_THROW(b.check());
@@ -348,6 +353,14 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
     c.adaptive_roulette = -0.1;
     const std::string e4 = error([&] { c.check(); });
     EXPECT_NE(e4.find("adaptive_roulette"), std::string::npos) << e4;
+    c = a;
+    c.exposure_smooth = -1;
+    const std::string e7 = error([&] { c.check(); });
+    EXPECT_NE(e7.find("exposure_smooth"), std::string::npos) << e7;
+    FileStorage x("{\"exposure\": \"manual\"}",
+                  FileStorage::READ | FileStorage::MEMORY | FileStorage::FORMAT_JSON);
+    const std::string e8 = error([&] { InsertionParams().read(x.root()); });
+    EXPECT_NE(e8.find("auto, off"), std::string::npos) << e8;
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // vbme insert: synthetic objects in a hand-held video of a room, lit by the room, composited
 // by differential rendering (thesis chapter 5). A thin wrapper around cv::vbme::runInsertion.
+#include <algorithm>
 #include <cstdio>
 #include <map>
 #include <regex>
@@ -20,6 +21,7 @@ struct InsertOptions {
     // the command line's words for InsertionParams' enums
     std::string texture_mode = "accumulate", albedo = "irradiance", lights = "nnls",
                 shadows = "ratio";
+    std::string exposure = "auto";
     CommonOptions common;
 };
 
@@ -56,6 +58,7 @@ void parseOptions(InsertOptions& o) {
     o.p.albedo = fromWord(o.albedo, {P::ALBEDO_IRRADIANCE, P::ALBEDO_RETINEX});
     o.p.lights = fromWord(o.lights, {P::LIGHTS_NNLS, P::LIGHTS_HILL_CLIMB, P::LIGHTS_NONE});
     o.p.shadows = cv::vbme::parseShadows(o.shadows, "--shadows");
+    o.p.exposure = fromWord(o.exposure, {P::EXPOSURE_AUTO, P::EXPOSURE_OFF});
 }
 
 void runInsert(InsertOptions& o) {
@@ -93,6 +96,18 @@ void runInsert(InsertOptions& o) {
                     r.figure(cv::format("light%d_scale_r", i)),
                     r.figure(cv::format("light%d_scale_g", i)),
                     r.figure(cv::format("light%d_scale_b", i)));
+    if (o.p.exposure == cv::vbme::InsertionParams::EXPOSURE_AUTO) {
+        double lo = 1e9, hi = 0;
+        for (const auto& kv : r.figures)  // gain_<i>_<c>: one pass, however long the video
+            if (kv.first.compare(0, 5, "gain_") == 0) {
+                lo = std::min(lo, kv.second);
+                hi = std::max(hi, kv.second);
+            }
+        if (hi > 0)
+            std::printf(
+                "exposure: frame gains %.3f … %.3f against frame 0 (per frame in report.yml)\n", lo,
+                hi);
+    }
     if (r.video_written) {
         std::printf("written: %s (report %s/report.yml)\n", o.p.out.c_str(), r.work.c_str());
     } else {
@@ -174,6 +189,17 @@ void setupInsert(CLI::App& app) {
         ->capture_default_str();
     app.add_flag("--per-frame-gain", o->p.per_frame_gain,
                  "Light estimation also fits one exposure gain per frame (auto-exposure)");
+    // exposure and white balance per frame
+    app.add_option("--exposure", o->exposure,
+                   "auto: estimate each frame's exposure and white balance (per-channel gains) "
+                   "against the room, build the room at frame 0's exposure and render the object "
+                   "at each frame's; off: take every frame at one exposure")
+        ->check(CLI::IsMember({"auto", "off"}))
+        ->capture_default_str();
+    app.add_option("--exposure-smooth", o->p.exposure_smooth,
+                   "Half-width in frames of the gains' smoothing over time (0: none)")
+        ->check(CLI::Range(0, 1000))
+        ->capture_default_str();
     app.add_option("--adaptive-min-spp", o->p.adaptive_min_spp,
                    "Adaptive sampling: samples every pixel takes first; a pixel where no path "
                    "met the object stops there, others go on until --adaptive-error is met, at "

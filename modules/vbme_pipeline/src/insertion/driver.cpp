@@ -172,7 +172,8 @@ PipelineReport runInsertionLimited(const InsertionParams& p, const PipelineProgr
     const int64 t_start = getTickCount();
     PipelineReport rep;
     rep.pipeline = "insert";
-    for (const char* k : {"video", "tracking", "textures", "albedo", "lights", "render", "encode"})
+    for (const char* k :
+         {"video", "tracking", "textures", "exposure", "albedo", "lights", "render", "encode"})
         rep.addSeconds(k, 0);
     p.check();
     checkOverwrite(p.out, p.force);

@@ -13,6 +13,7 @@ namespace {
 const char* const kTextureWords[] = {"accumulate", "per-frame"};
 const char* const kAlbedoWords[] = {"irradiance", "retinex"};
 const char* const kLightsWords[] = {"nnls", "hill-climb", "none"};
+const char* const kExposureWords[] = {"auto", "off"};
 
 template <size_t N>
 int parseWord(const FileNode& n, const char* key, const char* const (&words)[N]) {
@@ -39,6 +40,11 @@ std::string toString(InsertionParams::AlbedoMethod m) {
 std::string toString(InsertionParams::LightsMethod m) {
     CV_Assert(m >= 0 && m < 3);
     return kLightsWords[m];
+}
+
+std::string toString(InsertionParams::ExposureMode m) {
+    CV_Assert(m >= 0 && m < 2);
+    return kExposureWords[m];
 }
 
 std::string InsertionParams::workFolder() const {
@@ -79,6 +85,10 @@ void InsertionParams::read(const FileNode& fn) {
     r("white", white);
     if (r.has("shadows"))
         shadows = parseShadows((std::string)r.node("shadows"), "InsertionParams.shadows");
+    // exposure and white balance per frame
+    if (r.has("exposure"))
+        exposure = (ExposureMode)parseWord(r.node("exposure"), "exposure", kExposureWords);
+    r("exposure_smooth", exposure_smooth);
     r("threads", threads);
     r("force", force);
     r("command_line", command_line);
@@ -98,6 +108,7 @@ void InsertionParams::write(FileStorage& fs) const {
        << toString(albedo) << "lights" << toString(lights) << "per_frame_gain"
        << (int)per_frame_gain << "white" << white << "shadows" << toString(shadows) << "threads"
        << threads << "force" << (int)force;
+    fs << "exposure" << toString(exposure) << "exposure_smooth" << exposure_smooth;
 }
 
 void InsertionParams::check() const {
@@ -130,6 +141,10 @@ void InsertionParams::check() const {
     if (!(white >= 0 && white <= 1)) bad(format("white = %g: expected in [0, 1]", white));
     if (shadows != CompositeParams::SHADOWS_ADDITIVE && shadows != CompositeParams::SHADOWS_RATIO)
         bad(format("shadows = %d: expected SHADOWS_ADDITIVE or SHADOWS_RATIO", (int)shadows));
+    if (exposure < 0 || exposure > EXPOSURE_OFF)
+        bad(format("exposure = %d: expected EXPOSURE_AUTO or EXPOSURE_OFF", (int)exposure));
+    if (exposure_smooth < 0 || exposure_smooth > 1000)
+        bad(format("exposure_smooth = %d: expected in [0, 1000] frames", exposure_smooth));
     if (threads < 0) bad(format("threads = %d: expected >= 0 (0: all cores)", threads));
 }
 

@@ -1,6 +1,7 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // prepareInsertion: the preparation stages in order (inputs, camera path, room textures,
 // albedo, lights) and the prepared scene's record, reused when the inputs have not changed.
+#include <algorithm>
 #include <filesystem>
 
 #include "insertion/stages.hpp"
@@ -81,6 +82,13 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
             ScopedTimer timer(stageSeconds(report, "textures"));
             radiance = roomTextures(p, in, path, work, progress);
         }
+        if (radiance.exposure) {  // every frame's gain against the room model
+            ScopedTimer timer(stageSeconds(report, "exposure"));
+            std::vector<int> texels;
+            rec.gains = exposureGains(p, scene, path, *radiance.exposure, in.video.frames, progress,
+                                      nullptr, &texels);
+            rec.exposure_texels_min = *std::min_element(texels.begin(), texels.end());
+        }
         in.video.kept.clear();     // the frames are no longer needed
         Scene room_scene = scene;  // the real room: no objects, no textures yet
         room_scene.objects.clear();
@@ -111,6 +119,8 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
     }
     out.lights = rec.lights;
     out.white_scale = rec.white_scale;
+    out.gains = rec.gains;
+    out.gains.resize(out.frames, Vec3d(1, 1, 1));  // exposure off
     out.render = frameRenderParams(p, out.scene);
     out.composite.response = out.scene.camera.response;
     out.composite.shadows = p.shadows;
@@ -121,6 +131,10 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
             for (int c = 0; c < 3; ++c)
                 report->setFigure(format("light%d_scale_%c", (int)i, "rgb"[c]),
                                   out.lights.scale[i][c]);
+        for (int i = 0; i < out.frames; ++i)
+            for (int c = 0; c < 3; ++c)
+                report->setFigure(format("gain_%d_%c", i, "bgr"[c]), out.gains[i][c]);
+        report->setFigure("exposure_texels_min", rec.exposure_texels_min);
     }
     return out;
 }

@@ -70,6 +70,10 @@ std::string fingerprint(const InsertionParams& p, const Inputs& in, const Camera
     h.str(toString(p.lights));
     h.num((int64)p.per_frame_gain);
     h.num(p.white);
+    if (p.exposure != InsertionParams::EXPOSURE_OFF) {  // off: the fingerprint of before
+        h.str("exposure " + toString(p.exposure));
+        h.num((int64)p.exposure_smooth);
+    }
     h.num((int64)p.has_place);
     if (p.has_place) {
         h.num(p.place.x);
@@ -94,6 +98,13 @@ void writePrepared(const std::string& path, const Scene& scene, const InsertionP
             << "texture_frames" << r.texture_frames << "albedo" << toString(p.albedo)
             << "lights_method" << toString(p.lights) << "per_frame_gain" << (int)p.per_frame_gain
             << "white" << p.white << "white_scale" << r.white_scale;
+        rec << "exposure" << toString(p.exposure) << "exposure_smooth" << p.exposure_smooth;
+        rec << "gains"
+            << "[:";
+        for (const Vec3d& g : r.gains)
+            rec << g[0] << g[1] << g[2];
+        rec << "]";
+        rec << "exposure_texels_min" << r.exposure_texels_min;
         if (p.has_place)
             rec << "place"
                 << "[:" << p.place.x << p.place.y << "]";
@@ -130,6 +141,14 @@ int readPrepared(const std::string& path, const std::string& fp, Scene& scene, P
     out.texture_frames = (int)rec["texture_frames"];
     out.white_scale = rec["white_scale"].empty() ? 1.0 : (double)rec["white_scale"];
     out.lights = readEstimate(rec["lights"]);
+    out.gains.clear();
+    std::vector<double> g;
+    for (const FileNode& v : rec["gains"])
+        g.push_back((double)v);
+    if (g.size() % 3 != 0) return 0;  // damaged: prepare again
+    for (size_t k = 0; k + 2 < g.size(); k += 3)
+        out.gains.emplace_back(g[k], g[k + 1], g[k + 2]);
+    out.exposure_texels_min = (int)rec["exposure_texels_min"];
     return 1;
 }
 

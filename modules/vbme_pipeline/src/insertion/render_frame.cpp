@@ -22,6 +22,9 @@ void renderInsertionFrame(PreparedInsertion& prepared, int i, InputArray frame,
     DifferentialImages local;
     DifferentialImages& im = layers ? *layers : local;
     prepared.renderer->render(*prepared.render_scene, prepared.camera(i), im);
+    // ---- exposure and white balance (issue 21): the layers at the frame's exposure ----
+    if (i < (int)prepared.gains.size()) insertion::applyFrameGain(im, prepared.gains[i]);
+    // ---- end of exposure ----
     Mat linear;
     compositeDifferential(frame, im, linear, cp);
     encodeComposite(linear, composite, cp.response, frame.depth());

@@ -53,17 +53,52 @@ RoomRadiance roomTextures(const InsertionParams& p, const Inputs& in, const Came
             if (std::binary_search(wanted.begin(), wanted.end(), i)) frames[i] = f.clone();
     }
 
+    // exposure and white balance: the texture frames' gains against frame 0's (exposure.cpp);
+    // every frame below is divided by its gain, so that the textures, the albedo and the
+    // lights are at frame 0's exposure
+    std::map<int, Vec3d> gain;
+    if (p.exposure == InsertionParams::EXPOSURE_AUTO) {
+        out.exposure = std::make_shared<ExposureEstimator>(scene, pathCamera(path, 0, scene));
+        std::vector<FaceObservation> obs;
+        for (int i : tex_frames)
+            obs.push_back(out.exposure->observe(frames.at(i), pathCamera(path, i, scene)));
+        const std::vector<Vec3d> g = out.exposure->alignFrames(obs);
+        for (size_t k = 0; k < tex_frames.size(); ++k)
+            gain[tex_frames[k]] = g[k];
+    }
+
     int done = 0;
     Mat lin;
     for (const auto& kv : frames) {
         const int i = kv.first;
+        const auto git = gain.find(i);
+        const bool scaled = git != gain.end() && git->second != Vec3d(1, 1, 1);
+        const Scalar inv = scaled
+                               ? Scalar(1 / git->second[0], 1 / git->second[1], 1 / git->second[2])
+                               : Scalar::all(1);
         if (std::binary_search(tex_frames.begin(), tex_frames.end(), i)) {
             linearize(kv.second, lin, scene.camera.response);
+            if (scaled) multiply(lin, inv, lin);
             acc->add(lin, pathCamera(path, i, scene));
             if (progress) progress("textures", ++done, (int64)tex_frames.size());
         }
         if (std::find(light_frames.begin(), light_frames.end(), i) != light_frames.end()) {
-            out.light_frames.push_back(kv.second);
+            Mat f = kv.second;
+            if (scaled) {
+                // encoded floats at frame 0's exposure; clipped pixels keep their values, so
+                // that light estimation still leaves them out (LightEstimationParams::clip_level)
+                Mat enc, orig;
+                linearize(kv.second, lin, scene.camera.response);
+                multiply(lin, inv, lin);
+                encode(lin, enc, scene.camera.response, CV_32F);
+                kv.second.convertTo(orig, CV_32FC3,
+                                    kv.second.depth() == CV_16U ? 1.0 / 65535 : 1.0 / 255);
+                std::vector<Mat> ch;
+                split(orig, ch);
+                orig.copyTo(enc, max(max(ch[0], ch[1]), ch[2]) >= 0.98f);
+                f = enc;
+            }
+            out.light_frames.push_back(f);
             out.light_cameras.push_back(pathCamera(path, i, scene));
         }
     }

@@ -6,6 +6,7 @@
 
 #include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,7 @@
 
 #include "opencv2/vbme/core/utility.hpp"
 #include "opencv2/vbme/pipeline/insertion.hpp"
+#include "opencv2/vbme/render/differential.hpp"
 #include "opencv2/vbme/version.hpp"
 
 namespace cv {
@@ -106,6 +108,59 @@ CameraPath cameraPath(const InsertionParams& p, const Inputs& in, const std::str
 /** The camera of frame @p i: the path's pose, @p scene's response and image size. */
 Camera pathCamera(const CameraPath& path, int i, const Scene& scene);
 
+// ------------------------------------------------------------------ exposure (exposure.cpp)
+
+/** A frame compared with the room: per face it sees, the logarithm of the frame's linear
+radiance rectified onto the face at the estimation size, and the texels usable for comparison
+(seen, not clipped, within the reliable range, away from the objects' influence and the
+proxies). */
+struct FaceObservation {
+    std::map<std::string, Mat> log;  //!< CV_32FC3, log of the linear radiance
+    std::map<std::string, Mat> ok;   //!< CV_8U, 255 where usable
+};
+
+/** CV_8U mask, 255 where the inserted objects (their box grown by its size, down to the floor:
+the shadow and the light they reflect) or the proxies project in @p cam's image. */
+Mat influenceMask(const Scene& scene, const Camera& cam);
+
+/** Per-frame per-channel gains of the video against the room model (see exposure.cpp). */
+class ExposureEstimator {
+public:
+    /** Estimation sizes for @p scene's room as @p first_camera sees it. */
+    ExposureEstimator(const Scene& scene, const Camera& first_camera);
+    /** Rectifies a display-encoded frame (8-, 16-bit or float BGR) seen by @p cam. */
+    FaceObservation observe(const Mat& frame, const Camera& cam) const;
+    /** The gains (B, G, R) of @p obs (the texture frames, the first one the reference: gain 1)
+    from their pairwise robust log-ratios; builds the model from the normalised frames. */
+    std::vector<Vec3d> alignFrames(const std::vector<FaceObservation>& obs);
+    /** A frame's gain against the model (alignFrames() first); @p texels receives the texels
+    compared (fewer than 30: gain 1 and no estimate). */
+    Vec3d frameGain(const FaceObservation& o, int* texels) const;
+
+private:
+    Scene scene_;
+    Size small_;
+    std::map<std::string, Size> sizes_;
+    float lo_ = 0, hi_ = 1;
+    FaceObservation model_;
+};
+
+/** Robust local quadratic smoothing of log gains over ±@p half_window frames; frames with fewer
+than 30 texels compared take the fit of their neighbours. */
+std::vector<Vec3d> smoothGains(const std::vector<Vec3d>& raw, const std::vector<int>& texels,
+                               int half_window);
+
+/** Every frame's gain against the model (one decoding pass), smoothed (InsertionParams::
+exposure_smooth). @p raw and @p texels (if not null) receive the unsmoothed gains and the
+texels each frame was compared over. */
+std::vector<Vec3d> exposureGains(const InsertionParams& p, const Scene& scene,
+                                 const CameraPath& path, const ExposureEstimator& est, int frames,
+                                 const PipelineProgress& progress, std::vector<Vec3d>* raw,
+                                 std::vector<int>* texels);
+
+/** Brings a differential render to a frame's exposure: obj, noobj and diff × @p g (B, G, R). */
+void applyFrameGain(DifferentialImages& im, const Vec3d& g);
+
 // ------------------------------------------------------------------ room textures
 // (room_textures.cpp)
 
@@ -117,6 +172,10 @@ struct RoomRadiance {
     std::vector<Mat> light_frames;        //!< input frames of light estimation
     std::vector<Camera> light_cameras;    //!< their cameras
     int texture_frames = 0;               //!< frames added to the textures
+    /** The frames' exposure against the room model (EXPOSURE_AUTO; null when off): the texture
+    and light frames above were divided by their gains, so the radiance is at frame 0's
+    exposure. */
+    std::shared_ptr<ExposureEstimator> exposure;
 };
 
 /** Projects the texture frames onto the room's faces (RoomTextureAccumulator), fills the
@@ -152,6 +211,8 @@ struct PreparedRecord {
     int frames = 0, texture_frames = 0;
     double white_scale = 1;
     LightEstimate lights;
+    std::vector<Vec3d> gains;     //!< per frame (B, G, R); empty when exposure is off
+    int exposure_texels_min = 0;  //!< the fewest texels a frame's gain came from
 };
 
 /** Writes the prepared scene and its record to @p path atomically (FileStorage, AtomicFile). */

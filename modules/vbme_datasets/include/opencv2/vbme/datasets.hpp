@@ -15,6 +15,7 @@ handheldCameraPath), and a whole insertion job with its annotation and path-trac
 */
 
 #include "opencv2/vbme/datasets/ball_clip.hpp"
+#include "opencv2/vbme/datasets/camera_effects.hpp"
 #include "opencv2/vbme/datasets/insertion_sequence.hpp"
 #include "opencv2/vbme/datasets/rendered_ball_clip.hpp"
 #include "opencv2/vbme/datasets/room.hpp"

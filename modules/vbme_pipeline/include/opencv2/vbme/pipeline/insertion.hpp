@@ -87,6 +87,22 @@ struct CV_EXPORTS InsertionParams {
     (default; the footage loses the fraction of light the model loses, which is never negative
     and follows the footage's exposure) or additive (Eq. 5.2). */
     CompositeParams::Shadows shadows = CompositeParams::SHADOWS_RATIO;
+
+    // ---- exposure and white balance per frame (issue 21; doc/vbme_pipeline_insert.md) ----
+    /** @brief Whether the frames' exposure and white balance are followed. */
+    enum ExposureMode {
+        /** per-frame per-channel gains estimated against the room model, applied to the
+        rendered object and its differential; the room textures, albedo and lights are built
+        from frames brought to frame 0's exposure (the default) */
+        EXPOSURE_AUTO = 0,
+        EXPOSURE_OFF = 1  //!< every frame is taken at one exposure (all gains 1)
+    };
+    ExposureMode exposure = EXPOSURE_AUTO;  //!< exposure and white balance per frame
+    /** @brief Half-width in frames of the gains' smoothing over time (a robust local
+    quadratic fit over 2·n + 1 frames; 0: the per-frame estimates as they are). */
+    int exposure_smooth = 2;
+    // ---- end of exposure ----
+
     int threads = 0;           //!< renderer worker threads (0: all cores)
     bool force = false;        //!< overwrite an existing --out; redo a foreign work folder
     std::string command_line;  //!< recorded in the EXR provenance attributes (optional)
@@ -113,6 +129,8 @@ CV_EXPORTS std::string toString(InsertionParams::TextureMode m);
 CV_EXPORTS std::string toString(InsertionParams::AlbedoMethod m);
 /** @brief The command line's word for a light estimation ("nnls", "hill-climb", "none"). */
 CV_EXPORTS std::string toString(InsertionParams::LightsMethod m);
+/** @brief The command line's word for an exposure mode ("auto", "off"). */
+CV_EXPORTS std::string toString(InsertionParams::ExposureMode m);
 
 /** @brief The result of the preparation stages: everything a frame's render needs.
 
@@ -124,9 +142,13 @@ struct CV_EXPORTS PreparedInsertion {
     /** @brief The prepared scene: the room with albedo textures, the lights scaled by the
     white point and the light estimate, the objects placed. */
     Scene scene;
-    CameraPath path;                 //!< one camera per frame of the video
-    LightEstimate lights;            //!< the light estimate (applied to @p scene's lights)
-    double white_scale = 1;          //!< factor (≥ 1) applied to all lights before @p lights
+    CameraPath path;         //!< one camera per frame of the video
+    LightEstimate lights;    //!< the light estimate (applied to @p scene's lights)
+    double white_scale = 1;  //!< factor (≥ 1) applied to all lights before @p lights
+    /** @brief Per frame, the linear gains (B, G, R) of the video against the room model (whose
+    exposure is frame 0's), smoothed over time; renderInsertionFrame() multiplies the rendered
+    layers by them. All 1 with InsertionParams::EXPOSURE_OFF. */
+    std::vector<Vec3d> gains;
     int frames = 0;                  //!< frames of the input video
     std::vector<double> timestamps;  //!< presentation time of each input frame (seconds)
     std::string fingerprint;         //!< hash of everything the preparation depends on
@@ -159,19 +181,23 @@ twice when its container's frame count was wrong; camera tracking decodes it on 
 @param p options (checked with InsertionParams::check()).
 @param progress stage progress ("video", "tracking", "textures", "albedo", "lights").
 @param report if not null, receives frames_total, work, the stages' seconds and the figures
-`white_scale`, `prepared_reused` and `light<i>_scale_{r,g,b}`. */
+`white_scale`, `prepared_reused`, `light<i>_scale_{r,g,b}`, the gains `gain_<i>_{b,g,r}` of
+every frame i (PreparedInsertion::gains) and `exposure_texels_min` (the fewest room texels a
+frame's gain was estimated from; below 30 that frame took its neighbours' fit; 0 when off). */
 CV_EXPORTS PreparedInsertion prepareInsertion(const InsertionParams& p,
                                               const PipelineProgress& progress = PipelineProgress(),
                                               PipelineReport* report = nullptr);
 
 /** @brief Renders frame @p i of a prepared insertion and composites it onto the input frame
-(DifferentialRenderer with shared samples and a fixed seed, compositeDifferential() with
-PreparedInsertion::composite, encodeComposite()).
+(DifferentialRenderer with shared samples and a fixed seed; the layers × the frame's gain
+PreparedInsertion::gains[i]; compositeDifferential() with PreparedInsertion::composite,
+encodeComposite()).
 @param prepared the preparation (its render scene is built on the first call).
 @param i frame index in [0, prepared.frames).
 @param frame the input video's frame @p i (8- or 16-bit BGR, the scene's image size).
 @param composite receives the composited frame, of @p frame's type.
-@param layers if not null, receives the differential render's layers.
+@param layers if not null, receives the differential render's layers (at the frame's exposure:
+multiplied by its gain).
 @param composite_linear if not null, receives the linear CV_32FC3 composite. */
 CV_EXPORTS void renderInsertionFrame(PreparedInsertion& prepared, int i, InputArray frame,
                                      OutputArray composite, DifferentialImages* layers = nullptr,
