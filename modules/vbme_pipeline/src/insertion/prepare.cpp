@@ -46,6 +46,11 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
 
     Inputs in = readInputs(p, progress, report);
     if (report) report->frames_total = in.video.frames;
+    GrainModel grain;  // the footage's noise, from the kept frames
+    {
+        ScopedTimer timer(stageSeconds(report, "grain"));
+        grain = footageGrain(p, in.video.kept);
+    }
     fs::create_directories(work);
     std::string path_file;
     CameraPath path = cameraPath(p, in, work, path_file, report);
@@ -124,7 +129,37 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
     out.render = frameRenderParams(p, out.scene);
     out.composite.response = out.scene.camera.response;
     out.composite.shadows = p.shadows;
+    // grain and motion blur
+    out.grain = grain;
+    out.grain_on = p.grain == InsertionParams::GRAIN_AUTO && grain.reliable;
+    int shutter_frame = -1;
+    double shutter_motion = 0;
+    bool shutter_estimated = false;
+    out.shutter = p.shutter;
+    if (p.shutter < 0) {
+        ScopedTimer timer(stageSeconds(report, "shutter"));
+        if (progress) progress("shutter", 0, 1);
+        const double s = estimateShutter(out, p, &shutter_frame, &shutter_motion);
+        shutter_estimated = s >= 0;
+        out.shutter = shutter_estimated ? s : 0.5;  // no motion to measure: a half-frame shutter
+        if (progress) progress("shutter", 1, 1);
+    }
     if (report) {
+        report->setFigure("grain_on", out.grain_on ? 1 : 0);
+        report->setFigure("grain_reliable", grain.reliable ? 1 : 0);
+        report->setFigure("grain_sigma", grain.meanSigma());
+        report->setFigure("grain_blur", grain.blur);
+        report->setFigure("grain_correlation", grain.correlation);
+        report->setFigure("grain_pixels", grain.pixels);
+        for (size_t b = 0; b < grain.level.size(); ++b) {
+            report->setFigure(format("grain_%d_level", (int)b), grain.level[b]);
+            for (int c = 0; c < 3; ++c)
+                report->setFigure(format("grain_%d_sigma_%c", (int)b, "bgr"[c]), grain.sigma[b][c]);
+        }
+        report->setFigure("shutter", out.shutter);
+        report->setFigure("shutter_estimated", shutter_estimated ? 1 : 0);
+        report->setFigure("shutter_frame", shutter_frame);
+        report->setFigure("shutter_motion_px", shutter_motion);
         report->setFigure("prepared_reused", out.reused ? 1 : 0);
         report->setFigure("white_scale", out.white_scale);
         for (size_t i = 0; i < out.lights.scale.size(); ++i)

@@ -198,6 +198,33 @@ double roomAlbedo(const InsertionParams& p, const RoomRadiance& radiance, Scene&
 the estimate to @p room_scene. */
 LightEstimate roomLights(const InsertionParams& p, const RoomRadiance& radiance, Scene& room_scene);
 
+// ------------------------------------------------------------------ grain (grain.cpp)
+
+/** The footage's noise measured on (up to 8 of) the kept frames; an empty model when
+InsertionParams::grain is off. */
+GrainModel footageGrain(const InsertionParams& p, const std::map<int, Mat>& kept);
+
+/** Frame @p i's step "grain": adds the footage's noise to the objects' pixels of the linear
+composite (weighted by the coverage) when PreparedInsertion::grain_on. */
+void addFrameGrain(const PreparedInsertion& prepared, int i, const DifferentialImages& layers,
+                   Mat& linear);
+
+// ------------------------------------------------------------------ motion blur
+// (motion_blur.cpp)
+
+/** Frame @p i's step "render (with motion blur)": the layers rendered over the shutter interval
+(one render per 1.5 px of the objects' motion over it, at most 16), or the one render at the
+frame's time when PreparedInsertion::shutter is 0 or the objects barely move. */
+void renderFrameLayers(PreparedInsertion& prepared, int i, DifferentialImages& layers);
+
+/** The shutter (fraction of the frame interval) that best explains the blur of the room's
+edges on the frame of the fastest camera motion: the room rendered without objects over
+candidate intervals 0, 1/8, …, 1 (8 renders each), the frame's gradients compared with the
+renders' (scaled), the minimum refined by a parabola. −1 when the camera never moves more than
+3 px in a frame interval. @p frame and @p motion_px receive that frame and its motion. */
+double estimateShutter(const PreparedInsertion& prepared, const InsertionParams& p, int* frame,
+                       double* motion_px);
+
 // ------------------------------------------------------------------ the record
 // (prepared_record.cpp)
 
