@@ -243,17 +243,18 @@ void viewRoom(const RoomView& v, const Camera& cam, Mat& out, Mat& valid) {
 
 }  // namespace
 
-double estimateShutter(const PreparedInsertion& prep, const InsertionParams& p, int* frame,
+double estimateShutter(const Scene& scene, const CameraPath& path, int frames,
+                       const std::string& work, const std::string& video, int* frame,
                        double* motion_px) {
     if (frame) *frame = -1;
     if (motion_px) *motion_px = 0;
-    const RoomView view = loadRoomView(prep.scene, prep.work);
+    const RoomView view = loadRoomView(scene, work);
     // the frame of the largest image motion over one frame interval, at the room points a 5×5
     // grid of its pixels sees
     int best = -1;
     double best_px = 0;
-    for (int i = 0; i < prep.frames && i < (int)prep.path.frames.size(); ++i) {
-        const Camera cam = prep.camera(i);
+    for (int i = 0; i < frames && i < (int)path.frames.size(); ++i) {
+        const Camera cam = pathCamera(path, i, scene);
         std::vector<Vec3d> pts;
         for (int gy = 1; gy <= 5; ++gy)
             for (int gx = 1; gx <= 5; ++gx) {
@@ -266,7 +267,7 @@ double estimateShutter(const PreparedInsertion& prep, const InsertionParams& p, 
                         f, t, &X))
                     pts.push_back(X);
             }
-        const double px = projectedMotion(prep.path, i - 0.5, i + 0.5, cam, pts);
+        const double px = projectedMotion(path, i - 0.5, i + 0.5, cam, pts);
         if (px > best_px) best_px = px, best = i;
     }
     if (frame) *frame = best;
@@ -274,22 +275,34 @@ double estimateShutter(const PreparedInsertion& prep, const InsertionParams& p, 
     if (best < 0 || best_px < 3) return -1;  // too little motion to see its blur
     Mat plate;
     {
-        VideoReader reader(p.video);
+        VideoReader reader(video);
         Mat f;
         for (int i = 0; i <= best && reader.read(f); ++i)
             if (i == best) plate = f.clone();
     }
     if (plate.empty()) return -1;
     Mat P;
-    linearize(plate, P, prep.scene.camera.response);
-    const Camera base = prep.camera(best);
+    // at most 480 px wide (the textures' lookups stay cheap; blur widths stay measurable)
+    Camera base = pathCamera(path, best, scene);
+    const double scale = std::min(1.0, 480.0 / plate.cols);
+    if (scale < 1) {
+        base.image_size =
+            Size((int)std::lround(plate.cols * scale), (int)std::lround(plate.rows * scale));
+        base.K(0, 0) *= scale;
+        base.K(0, 1) *= scale;
+        base.K(1, 1) *= scale;
+        base.K(0, 2) = (base.K(0, 2) + 0.5) * scale - 0.5;
+        base.K(1, 2) = (base.K(1, 2) + 0.5) * scale - 0.5;
+        resize(plate, plate, base.image_size, 0, 0, INTER_AREA);
+    }
+    linearize(plate, P, scene.camera.response);
     // the room through 32 cameras spread over one frame interval centred on the frame (and
     // one at its time): a shutter of j/16 averages the 2j central ones
     const int N = 32;
     std::vector<Mat> sub(N);
     Mat valid_all, v;
     for (int k = 0; k < N; ++k) {
-        viewRoom(view, cameraAtTime(prep.path, best + (k + 0.5) / N - 0.5, base), sub[k], v);
+        viewRoom(view, cameraAtTime(path, best + (k + 0.5) / N - 0.5, base), sub[k], v);
         valid_all = valid_all.empty() ? v : (valid_all & v);
     }
     Mat sharp;

@@ -94,6 +94,13 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
                                       nullptr, &texels);
             rec.exposure_texels_min = *std::min_element(texels.begin(), texels.end());
         }
+        if (p.shutter < 0) {  // motion blur: the shutter from the room's edges
+            ScopedTimer timer(stageSeconds(report, "shutter"));
+            if (progress) progress("shutter", 0, 1);
+            rec.shutter_estimate = estimateShutter(scene, path, in.video.frames, work, p.video,
+                                                   &rec.shutter_frame, &rec.shutter_motion_px);
+            if (progress) progress("shutter", 1, 1);
+        }
         in.video.kept.clear();     // the frames are no longer needed
         Scene room_scene = scene;  // the real room: no objects, no textures yet
         room_scene.objects.clear();
@@ -132,18 +139,19 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
     // grain and motion blur
     out.grain = grain;
     out.grain_on = p.grain == InsertionParams::GRAIN_AUTO && grain.reliable;
-    int shutter_frame = -1;
-    double shutter_motion = 0;
-    bool shutter_estimated = false;
     out.shutter = p.shutter;
     if (p.shutter < 0) {
-        ScopedTimer timer(stageSeconds(report, "shutter"));
-        if (progress) progress("shutter", 0, 1);
-        const double s = estimateShutter(out, p, &shutter_frame, &shutter_motion);
-        shutter_estimated = s >= 0;
-        out.shutter = shutter_estimated ? s : 0.5;  // no motion to measure: a half-frame shutter
-        if (progress) progress("shutter", 1, 1);
+        if (rec.shutter_estimate < -1) {  // a record from before the estimate: estimate now
+            ScopedTimer timer(stageSeconds(report, "shutter"));
+            if (progress) progress("shutter", 0, 1);
+            rec.shutter_estimate = estimateShutter(out.scene, out.path, out.frames, work, p.video,
+                                                   &rec.shutter_frame, &rec.shutter_motion_px);
+            if (progress) progress("shutter", 1, 1);
+        }
+        // no motion to measure: a half-frame shutter (the blur it gives is then small)
+        out.shutter = rec.shutter_estimate >= 0 ? rec.shutter_estimate : 0.5;
     }
+    const bool shutter_estimated = p.shutter < 0 && rec.shutter_estimate >= 0;
     if (report) {
         report->setFigure("grain_on", out.grain_on ? 1 : 0);
         report->setFigure("grain_reliable", grain.reliable ? 1 : 0);
@@ -158,8 +166,8 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
         }
         report->setFigure("shutter", out.shutter);
         report->setFigure("shutter_estimated", shutter_estimated ? 1 : 0);
-        report->setFigure("shutter_frame", shutter_frame);
-        report->setFigure("shutter_motion_px", shutter_motion);
+        report->setFigure("shutter_frame", rec.shutter_frame);
+        report->setFigure("shutter_motion_px", rec.shutter_motion_px);
         report->setFigure("prepared_reused", out.reused ? 1 : 0);
         report->setFigure("white_scale", out.white_scale);
         for (size_t i = 0; i < out.lights.scale.size(); ++i)
