@@ -210,6 +210,11 @@ TEST(PipelineInsertE2E, CalibrateTrackInsertMatchesTruth) {
     ip.work = tmp / "work";
     ip.first = 0;
     ip.end = 2;
+    // grain off: input and truth are vbme renders drawing the insert's own samples (their
+    // path-tracing noise is correlated with the insert's), so added independent grain can only
+    // add to the error against this truth (it lowered the true-camera figure from 42.00 to
+    // 39.41 dB); the grain is measured on Cycles' clip (test_pipeline_insert_grain.cpp)
+    ip.grain = InsertionParams::GRAIN_OFF;
     const auto t2 = std::chrono::steady_clock::now();
     const PipelineReport irep = runInsertion(ip);
     const double t_insert = seconds(t2);
@@ -266,6 +271,11 @@ TEST(PipelineInsertTruth, TrueCamerasInsertMatchesTruth) {
     ip.out = tmp / "inserted.mkv";
     ip.work = tmp / "work";
     ip.end = 2;
+    // grain off: input and truth are vbme renders drawing the insert's own samples (their
+    // path-tracing noise is correlated with the insert's), so added independent grain can only
+    // add to the error against this truth (it lowered the true-camera figure from 42.00 to
+    // 39.41 dB); the grain is measured on Cycles' clip (test_pipeline_insert_grain.cpp)
+    ip.grain = InsertionParams::GRAIN_OFF;
     const auto t1 = std::chrono::steady_clock::now();
     const PipelineReport irep = runInsertion(ip);
     const double t_insert = seconds(t1);

@@ -22,6 +22,7 @@ struct InsertOptions {
     std::string texture_mode = "accumulate", albedo = "irradiance", lights = "nnls",
                 shadows = "ratio";
     std::string exposure = "auto";
+    std::string grain = "auto", shutter = "auto";  // grain and motion blur
     CommonOptions common;
 };
 
@@ -59,6 +60,22 @@ void parseOptions(InsertOptions& o) {
     o.p.lights = fromWord(o.lights, {P::LIGHTS_NNLS, P::LIGHTS_HILL_CLIMB, P::LIGHTS_NONE});
     o.p.shadows = cv::vbme::parseShadows(o.shadows, "--shadows");
     o.p.exposure = fromWord(o.exposure, {P::EXPOSURE_AUTO, P::EXPOSURE_OFF});
+    // grain and motion blur
+    o.p.grain = fromWord(o.grain, {P::GRAIN_AUTO, P::GRAIN_OFF});
+    if (o.shutter == "auto") {
+        o.p.shutter = -1;
+    } else if (o.shutter == "off") {
+        o.p.shutter = 0;
+    } else {
+        std::smatch m;
+        if (!std::regex_match(o.shutter, m, std::regex(num)) || std::stod(m[1]) < 0 ||
+            std::stod(m[1]) > 1)
+            throw CLI::ValidationError("--shutter",
+                                       "expected auto, off or a fraction of the "
+                                       "frame interval in [0, 1], got '" +
+                                           o.shutter + "'");
+        o.p.shutter = std::stod(m[1]);
+    }
 }
 
 void runInsert(InsertOptions& o) {
@@ -199,6 +216,16 @@ void setupInsert(CLI::App& app) {
     app.add_option("--exposure-smooth", o->p.exposure_smooth,
                    "Half-width in frames of the gains' smoothing over time (0: none)")
         ->check(CLI::Range(0, 1000))
+        ->capture_default_str();
+    app.add_option("--grain", o->grain,
+                   "auto: measure the footage's noise and add it to the object's pixels when "
+                   "the measure is reliable; off: add none")
+        ->check(CLI::IsMember({"auto", "off"}))
+        ->capture_default_str();
+    app.add_option("--shutter", o->shutter,
+                   "Exposure as a fraction of the frame interval for the object's motion blur "
+                   "from the camera path (e.g. 0.5); auto: estimated from the blur of the "
+                   "room's edges; off: no motion blur")
         ->capture_default_str();
     app.add_option("--adaptive-min-spp", o->p.adaptive_min_spp,
                    "Adaptive sampling: samples every pixel takes first; a pixel where no path "

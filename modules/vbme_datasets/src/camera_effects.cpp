@@ -4,6 +4,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "opencv2/vbme/core/video.hpp"
 #include "opencv2/vbme/datasets/camera_effects.hpp"
 
 namespace cv {
@@ -56,6 +57,29 @@ Mat applyCameraEffects(const Mat& frame_bgr8, int t, const CameraEffects& fx) {
             fx.seed * 0x9e3779b97f4a7c15ull + (uint64)(t + 1) * 0xbf58476d1ce4e5b9ull;
         out = addSensorNoise(out, fx.noise_sigma, fx.noise_blur, seed);
     }
+    return out;
+}
+
+// --- grain's effects ---
+
+std::vector<Mat> compressH264(const std::vector<Mat>& frames, double fps, int64 bitrate,
+                              const std::string& path) {
+    CV_Assert(!frames.empty() && fps > 0 && bitrate > 0);
+    VideoSinkOptions o;
+    o.codec = "h264";
+    o.bitrate = bitrate;
+    o.pix_fmt = "yuv420p";
+    {
+        VideoSink sink(path, fps, frames[0].size(), o);
+        for (const Mat& f : frames)
+            sink.write(f);
+        sink.close();
+    }
+    std::vector<Mat> out;
+    VideoReader reader(path);
+    Mat f;
+    while (reader.read(f))
+        out.push_back(f.clone());
     return out;
 }
 

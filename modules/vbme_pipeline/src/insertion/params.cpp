@@ -14,6 +14,7 @@ const char* const kTextureWords[] = {"accumulate", "per-frame"};
 const char* const kAlbedoWords[] = {"irradiance", "retinex"};
 const char* const kLightsWords[] = {"nnls", "hill-climb", "none"};
 const char* const kExposureWords[] = {"auto", "off"};
+const char* const kGrainWords[] = {"auto", "off"};
 
 template <size_t N>
 int parseWord(const FileNode& n, const char* key, const char* const (&words)[N]) {
@@ -45,6 +46,11 @@ std::string toString(InsertionParams::LightsMethod m) {
 std::string toString(InsertionParams::ExposureMode m) {
     CV_Assert(m >= 0 && m < 2);
     return kExposureWords[m];
+}
+
+std::string toString(InsertionParams::GrainMode m) {
+    CV_Assert(m >= 0 && m < 2);
+    return kGrainWords[m];
 }
 
 std::string InsertionParams::workFolder() const {
@@ -89,6 +95,9 @@ void InsertionParams::read(const FileNode& fn) {
     if (r.has("exposure"))
         exposure = (ExposureMode)parseWord(r.node("exposure"), "exposure", kExposureWords);
     r("exposure_smooth", exposure_smooth);
+    // grain and motion blur
+    if (r.has("grain")) grain = (GrainMode)parseWord(r.node("grain"), "grain", kGrainWords);
+    r("shutter", shutter);
     r("threads", threads);
     r("force", force);
     r("command_line", command_line);
@@ -106,8 +115,8 @@ void InsertionParams::write(FileStorage& fs) const {
        << texture_cone << "first" << first << "end" << end << "prepare_only" << (int)prepare_only
        << "keep_exr" << (int)keep_exr << "texture_mode" << toString(texture_mode) << "albedo"
        << toString(albedo) << "lights" << toString(lights) << "per_frame_gain"
-       << (int)per_frame_gain << "white" << white << "shadows" << toString(shadows) << "threads"
-       << threads << "force" << (int)force;
+       << (int)per_frame_gain << "white" << white << "shadows" << toString(shadows) << "grain"
+       << toString(grain) << "shutter" << shutter << "threads" << threads << "force" << (int)force;
     fs << "exposure" << toString(exposure) << "exposure_smooth" << exposure_smooth;
 }
 
@@ -145,6 +154,11 @@ void InsertionParams::check() const {
         bad(format("exposure = %d: expected EXPOSURE_AUTO or EXPOSURE_OFF", (int)exposure));
     if (exposure_smooth < 0 || exposure_smooth > 1000)
         bad(format("exposure_smooth = %d: expected in [0, 1000] frames", exposure_smooth));
+    if (grain < 0 || grain > GRAIN_OFF)
+        bad(format("grain = %d: expected GRAIN_AUTO or GRAIN_OFF", (int)grain));
+    if (!(shutter == -1 || (shutter >= 0 && shutter <= 1)))
+        bad(format("shutter = %g: expected in [0, 1] (of the frame interval) or -1 (estimated)",
+                   shutter));
     if (threads < 0) bad(format("threads = %d: expected >= 0 (0: all cores)", threads));
 }
 

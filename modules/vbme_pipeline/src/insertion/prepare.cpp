@@ -46,6 +46,11 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
 
     Inputs in = readInputs(p, progress, report);
     if (report) report->frames_total = in.video.frames;
+    GrainModel grain;  // the footage's noise, from the kept frames
+    {
+        ScopedTimer timer(stageSeconds(report, "grain"));
+        grain = footageGrain(p, in.video.kept);
+    }
     fs::create_directories(work);
     std::string path_file;
     CameraPath path = cameraPath(p, in, work, path_file, report);
@@ -89,6 +94,13 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
                                       nullptr, &texels);
             rec.exposure_texels_min = *std::min_element(texels.begin(), texels.end());
         }
+        if (p.shutter < 0) {  // motion blur: the shutter from the room's edges
+            ScopedTimer timer(stageSeconds(report, "shutter"));
+            if (progress) progress("shutter", 0, 1);
+            rec.shutter_estimate = estimateShutter(scene, path, in.video.frames, work, p.video,
+                                                   &rec.shutter_frame, &rec.shutter_motion_px);
+            if (progress) progress("shutter", 1, 1);
+        }
         in.video.kept.clear();     // the frames are no longer needed
         Scene room_scene = scene;  // the real room: no objects, no textures yet
         room_scene.objects.clear();
@@ -124,7 +136,38 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
     out.render = frameRenderParams(p, out.scene);
     out.composite.response = out.scene.camera.response;
     out.composite.shadows = p.shadows;
+    // grain and motion blur
+    out.grain = grain;
+    out.grain_on = p.grain == InsertionParams::GRAIN_AUTO && grain.reliable;
+    out.shutter = p.shutter;
+    if (p.shutter < 0) {
+        if (rec.shutter_estimate < -1) {  // a record from before the estimate: estimate now
+            ScopedTimer timer(stageSeconds(report, "shutter"));
+            if (progress) progress("shutter", 0, 1);
+            rec.shutter_estimate = estimateShutter(out.scene, out.path, out.frames, work, p.video,
+                                                   &rec.shutter_frame, &rec.shutter_motion_px);
+            if (progress) progress("shutter", 1, 1);
+        }
+        // no motion to measure: a half-frame shutter (the blur it gives is then small)
+        out.shutter = rec.shutter_estimate >= 0 ? rec.shutter_estimate : 0.5;
+    }
+    const bool shutter_estimated = p.shutter < 0 && rec.shutter_estimate >= 0;
     if (report) {
+        report->setFigure("grain_on", out.grain_on ? 1 : 0);
+        report->setFigure("grain_reliable", grain.reliable ? 1 : 0);
+        report->setFigure("grain_sigma", grain.meanSigma());
+        report->setFigure("grain_blur", grain.blur);
+        report->setFigure("grain_correlation", grain.correlation);
+        report->setFigure("grain_pixels", grain.pixels);
+        for (size_t b = 0; b < grain.level.size(); ++b) {
+            report->setFigure(format("grain_%d_level", (int)b), grain.level[b]);
+            for (int c = 0; c < 3; ++c)
+                report->setFigure(format("grain_%d_sigma_%c", (int)b, "bgr"[c]), grain.sigma[b][c]);
+        }
+        report->setFigure("shutter", out.shutter);
+        report->setFigure("shutter_estimated", shutter_estimated ? 1 : 0);
+        report->setFigure("shutter_frame", rec.shutter_frame);
+        report->setFigure("shutter_motion_px", rec.shutter_motion_px);
         report->setFigure("prepared_reused", out.reused ? 1 : 0);
         report->setFigure("white_scale", out.white_scale);
         for (size_t i = 0; i < out.lights.scale.size(); ++i)

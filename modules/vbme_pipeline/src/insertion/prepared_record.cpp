@@ -112,6 +112,9 @@ void writePrepared(const std::string& path, const Scene& scene, const InsertionP
             << "{";
         writeEstimate(rec, r.lights);
         rec << "}";
+        // motion blur: the estimated shutter
+        rec << "shutter_estimate" << r.shutter_estimate << "shutter_frame" << r.shutter_frame
+            << "shutter_motion_px" << r.shutter_motion_px;
         rec << "}";
     }
     out.commit();
@@ -149,6 +152,12 @@ int readPrepared(const std::string& path, const std::string& fp, Scene& scene, P
     for (size_t k = 0; k + 2 < g.size(); k += 3)
         out.gains.emplace_back(g[k], g[k + 1], g[k + 2]);
     out.exposure_texels_min = (int)rec["exposure_texels_min"];
+    // motion blur: the estimated shutter (absent from older records: estimated again)
+    if (!rec["shutter_estimate"].empty()) {
+        out.shutter_estimate = (double)rec["shutter_estimate"];
+        out.shutter_frame = (int)rec["shutter_frame"];
+        out.shutter_motion_px = (double)rec["shutter_motion_px"];
+    }
     return 1;
 }
 

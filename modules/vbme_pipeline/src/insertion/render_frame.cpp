@@ -21,12 +21,13 @@ void renderInsertionFrame(PreparedInsertion& prepared, int i, InputArray frame,
     const CompositeParams& cp = prepared.composite;
     DifferentialImages local;
     DifferentialImages& im = layers ? *layers : local;
-    prepared.renderer->render(*prepared.render_scene, prepared.camera(i), im);
+    insertion::renderFrameLayers(prepared, i, im);  // render, motion blur over the shutter
     // ---- exposure and white balance (issue 21): the layers at the frame's exposure ----
     if (i < (int)prepared.gains.size()) insertion::applyFrameGain(im, prepared.gains[i]);
     // ---- end of exposure ----
     Mat linear;
     compositeDifferential(frame, im, linear, cp);
+    insertion::addFrameGrain(prepared, i, im, linear);  // the footage's noise on the objects
     encodeComposite(linear, composite, cp.response, frame.depth());
     if (composite_linear) *composite_linear = linear;
 }

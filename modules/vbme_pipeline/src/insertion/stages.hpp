@@ -198,6 +198,37 @@ double roomAlbedo(const InsertionParams& p, const RoomRadiance& radiance, Scene&
 the estimate to @p room_scene. */
 LightEstimate roomLights(const InsertionParams& p, const RoomRadiance& radiance, Scene& room_scene);
 
+// ------------------------------------------------------------------ grain (grain.cpp)
+
+/** The footage's noise measured on (up to 8 of) the kept frames; an empty model when
+InsertionParams::grain is off. */
+GrainModel footageGrain(const InsertionParams& p, const std::map<int, Mat>& kept);
+
+/** Frame @p i's step "grain": adds the footage's noise to the objects' pixels of the linear
+composite (weighted by the coverage) when PreparedInsertion::grain_on. */
+void addFrameGrain(const PreparedInsertion& prepared, int i, const DifferentialImages& layers,
+                   Mat& linear);
+
+// ------------------------------------------------------------------ motion blur
+// (motion_blur.cpp)
+
+/** Frame @p i's step "render (with motion blur)": the layers rendered over the shutter interval
+(one render per 1.5 px of the objects' motion over it, at most 16), or the one render at the
+frame's time when PreparedInsertion::shutter is 0 or the objects barely move. */
+void renderFrameLayers(PreparedInsertion& prepared, int i, DifferentialImages& layers);
+
+/** The shutter (fraction of the frame interval) that best explains the blur of the room's
+edges on the frame of the fastest camera motion (the largest image motion over a frame interval
+of the room points a 5×5 pixel grid sees): the room's radiance textures (<work>/textures)
+seen through 32 cameras spread over one frame interval centred on that frame, averaged over the
+central 2j of them (shutter j/16), the frame's gradients compared with the average's (scaled
+by least squares, on texels some frame saw), the minimum refined by a parabola. At most 480 px
+wide. −1 when the camera never moves more than 3 px in a frame interval. @p frame and
+@p motion_px receive that frame and its motion. */
+double estimateShutter(const Scene& scene, const CameraPath& path, int frames,
+                       const std::string& work, const std::string& video, int* frame,
+                       double* motion_px);
+
 // ------------------------------------------------------------------ the record
 // (prepared_record.cpp)
 
@@ -213,6 +244,10 @@ struct PreparedRecord {
     LightEstimate lights;
     std::vector<Vec3d> gains;     //!< per frame (B, G, R); empty when exposure is off
     int exposure_texels_min = 0;  //!< the fewest texels a frame's gain came from
+    // --- motion blur: the estimated shutter (estimateShutter()) ---
+    double shutter_estimate = -2;  //!< −2: not estimated, −1: too little motion to measure
+    int shutter_frame = -1;        //!< the frame it was measured on
+    double shutter_motion_px = 0;  //!< that frame's image motion over a frame interval
 };
 
 /** Writes the prepared scene and its record to @p path atomically (FileStorage, AtomicFile). */

@@ -2,6 +2,9 @@
 #ifndef OPENCV_VBME_DATASETS_CAMERA_EFFECTS_HPP
 #define OPENCV_VBME_DATASETS_CAMERA_EFFECTS_HPP
 
+#include <string>
+#include <vector>
+
 #include <opencv2/core.hpp>
 #include <opencv2/vbme/core/response.hpp>
 
@@ -66,6 +69,17 @@ cameraEffectGains()), then the noise (addSensorNoise() with a seed mixed from fx
 CV_EXPORTS Mat applyCameraEffects(const Mat& frame_bgr8, int t, const CameraEffects& fx);
 
 // --- grain's effects ---
+
+/** @brief Phone-like compression: encodes @p frames as H.264 (yuv420p) at an average bit rate
+through VideoSink into @p path (e.g. a file in the test's temporary folder, `.mp4`), decodes it
+back with VideoReader and returns the decoded frames (8-bit BGR, as many as were written).
+@param frames 8-bit BGR frames of one size.
+@param fps frame rate written.
+@param bitrate average bit rate in bit/s (e.g. 400000 for 320×180 at 30 fps, about the bits
+per pixel of a phone's 1080p30 video at 17 Mbit/s).
+@param path the video file written (overwritten). */
+CV_EXPORTS std::vector<Mat> compressH264(const std::vector<Mat>& frames, double fps, int64 bitrate,
+                                         const std::string& path);
 
 //! @}
 

@@ -10,6 +10,7 @@
 #include "opencv2/vbme/core/camera_path.hpp"
 #include "opencv2/vbme/core/scene.hpp"
 #include "opencv2/vbme/core/video.hpp"
+#include "opencv2/vbme/pipeline/camera_match.hpp"
 #include "opencv2/vbme/pipeline/report.hpp"
 #include "opencv2/vbme/render/differential.hpp"
 #include "opencv2/vbme/render/integrator.hpp"
@@ -103,6 +104,19 @@ struct CV_EXPORTS InsertionParams {
     int exposure_smooth = 2;
     // ---- end of exposure ----
 
+    // --- grain and motion blur (issue 21: the camera's noise and blur on the object) ---
+    /** @brief Whether the footage's noise is added to the objects' pixels. */
+    enum GrainMode {
+        GRAIN_AUTO = 0,  //!< measured (measureGrain()); added when the measure is reliable
+        GRAIN_OFF = 1    //!< not measured, not added
+    };
+    GrainMode grain = GRAIN_AUTO;  //!< grain matching (`--grain auto|off`)
+    /** @brief The exposure as a fraction of the frame interval, over which the objects and
+    their differential are rendered (motion blur from the camera path); −1 (the default,
+    `--shutter auto`): estimated from the blur of the room's edges on the frame of the fastest
+    camera motion; 0 (`--shutter off`): no motion blur. */
+    double shutter = -1;
+    // --- end of grain and motion blur ---
     int threads = 0;           //!< renderer worker threads (0: all cores)
     bool force = false;        //!< overwrite an existing --out; redo a foreign work folder
     std::string command_line;  //!< recorded in the EXR provenance attributes (optional)
@@ -131,6 +145,8 @@ CV_EXPORTS std::string toString(InsertionParams::AlbedoMethod m);
 CV_EXPORTS std::string toString(InsertionParams::LightsMethod m);
 /** @brief The command line's word for an exposure mode ("auto", "off"). */
 CV_EXPORTS std::string toString(InsertionParams::ExposureMode m);
+/** @brief The command line's word for a grain mode ("auto", "off"). */
+CV_EXPORTS std::string toString(InsertionParams::GrainMode m);
 
 /** @brief The result of the preparation stages: everything a frame's render needs.
 
@@ -159,6 +175,13 @@ struct CV_EXPORTS PreparedInsertion {
     /** @brief Compositing of every frame (the response is the scene camera's; the shadow
     mode InsertionParams::shadows). */
     CompositeParams composite;
+    // --- grain and motion blur ---
+    GrainModel grain;       //!< the footage's noise (measured unless InsertionParams::grain off)
+    bool grain_on = false;  //!< whether @ref grain is added to the objects' pixels
+    /** @brief Exposure as a fraction of the frame interval over which each frame is rendered
+    (0: no motion blur); InsertionParams::shutter or its estimate. */
+    double shutter = 0;
+    // --- end of grain and motion blur ---
     /** @brief The camera of frame @p i (the path's pose, the scene's response and size). */
     Camera camera(int i) const;
 
@@ -183,7 +206,11 @@ twice when its container's frame count was wrong; camera tracking decodes it on 
 @param report if not null, receives frames_total, work, the stages' seconds and the figures
 `white_scale`, `prepared_reused`, `light<i>_scale_{r,g,b}`, the gains `gain_<i>_{b,g,r}` of
 every frame i (PreparedInsertion::gains) and `exposure_texels_min` (the fewest room texels a
-frame's gain was estimated from; below 30 that frame took its neighbours' fit; 0 when off). */
+frame's gain was estimated from; below 30 that frame took its neighbours' fit; 0 when off).;
+the grain model (`grain_on`, `grain_reliable`, `grain_sigma` (mean, code values), `grain_blur`
+(px), `grain_correlation`, `grain_pixels`, and per intensity bin b `grain_<b>_level`,
+`grain_<b>_sigma_{b,g,r}`) and the shutter (`shutter`, `shutter_estimated` (1 when estimated),
+`shutter_frame` and `shutter_motion_px`: the frame it was estimated on and its image motion). */
 CV_EXPORTS PreparedInsertion prepareInsertion(const InsertionParams& p,
                                               const PipelineProgress& progress = PipelineProgress(),
                                               PipelineReport* report = nullptr);
@@ -191,7 +218,10 @@ CV_EXPORTS PreparedInsertion prepareInsertion(const InsertionParams& p,
 /** @brief Renders frame @p i of a prepared insertion and composites it onto the input frame
 (DifferentialRenderer with shared samples and a fixed seed; the layers × the frame's gain
 PreparedInsertion::gains[i]; compositeDifferential() with PreparedInsertion::composite,
-encodeComposite()).
+encodeComposite()). With PreparedInsertion::shutter > 0 the layers are rendered over the
+shutter interval (renderOverShutter(), the camera from cameraAtTime()); with
+PreparedInsertion::grain_on the footage's noise is added to the objects' pixels after the
+composite (addGrain(), weighted by the coverage, seeded by the frame index).
 @param prepared the preparation (its render scene is built on the first call).
 @param i frame index in [0, prepared.frames).
 @param frame the input video's frame @p i (8- or 16-bit BGR, the scene's image size).
