@@ -114,9 +114,11 @@ void checkYamlTopLevel(const std::string& text, const std::string& path) {
         const std::string l = text.substr(pos, end - pos);
         pos = end + 1;
         const size_t c = l.find_first_not_of(" \t\r");
-        if (c == std::string::npos || l[c] == '#' || (c == 0 && l[0] == '%') ||
-            l.compare(0, 3, "---") == 0)
-            continue;
+        // a document start is "---" alone (OpenCV 4.6 also loops on "---L:0\n----\n---")
+        const bool doc_start =
+            l.compare(0, 3, "---") == 0 &&
+            (l.size() == 3 || l.find_first_not_of(" \t\r", 3) == std::string::npos);
+        if (c == std::string::npos || l[c] == '#' || (c == 0 && l[0] == '%') || doc_start) continue;
         if (c > 0)
             CV_Error(Error::StsParseError,
                      format("%s: line %d: the top level is indented; expected 'key: value' "
