@@ -17,7 +17,8 @@ file @p path) is a map at its top level: its first line that is not blank, a com
 directive (`%YAML…`) or a document start (`---` alone on its line) must begin at column 0 with
 neither `-` nor `[`. Every vbme YAML file is such a map, and OpenCV 4.6's YAML parser never
 returns on some documents whose top level is an indented sequence or a line such as `---L:0`
-(found by fuzzing the annotation reader; doc/reliability.md). Text whose first non-blank character is `{` (JSON, a flow map) passes.
+(found by fuzzing the annotation reader; doc/reliability.md). Text whose first non-blank character
+is `{` (JSON, a flow map) passes.
 
 Throws cv::Exception (StsParseError) "<path>: line N: …" otherwise. Used by openForReading()
 and the annotation reader. */
