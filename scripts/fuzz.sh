@@ -10,6 +10,10 @@
 #                                          build-fuzz/artifacts/TARGET/, the log to
 #                                          build-fuzz/logs/TARGET.log
 #   scripts/fuzz.sh minimize TARGET CRASH  minimise a crash (then copy it to fuzz/corpus/TARGET)
+#   scripts/fuzz.sh minimize TARGET        minimise the corpus: the committed seeds stay, and
+#                                          of the campaign's corpus (build-fuzz/corpus/TARGET)
+#                                          only the inputs that add coverage to them are copied
+#                                          into fuzz/corpus/TARGET (libFuzzer -merge=1)
 #
 # The replay of the committed corpus (no libFuzzer, any compiler) is a CTest test per target:
 #   ctest --test-dir build -L fuzz
@@ -26,7 +30,7 @@ export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 # an image of more than 4096 x 4096 pixels is refused by OpenCV's decoders while fuzzing
 export OPENCV_IO_MAX_IMAGE_PIXELS="${OPENCV_IO_MAX_IMAGE_PIXELS:-16777216}"
 
-usage() { sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 2; }
+usage() { sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 2; }
 
 case "${1:-}" in
   build)
@@ -62,9 +66,20 @@ case "${1:-}" in
       tee "$BUILD/logs/$t.log" | grep -E "^#[0-9]+.*(INITED|DONE|pulse)|ERROR|FINDING|^stat::|Done " || true
     ;;
   minimize)
-    t="${2:?target}"; crash="${3:?crash file}"
-    "$BUILD/fuzz/vbme_fuzz_$t" -minimize_crash=1 -runs=20000 -max_total_time=120 \
-      -exact_artifact_path="$crash.min" "$crash"
+    t="${2:?target}"; crash="${3:-}"
+    exe="$BUILD/fuzz/vbme_fuzz_$t"
+    [ -x "$exe" ] || { echo "fuzz.sh: $exe missing: run 'scripts/fuzz.sh build $t' first" >&2; exit 1; }
+    if [ -n "$crash" ]; then
+      "$exe" -minimize_crash=1 -runs=20000 -max_total_time=120 \
+        -exact_artifact_path="$crash.min" "$crash"
+    else
+      [ -d "$BUILD/corpus/$t" ] || { echo "fuzz.sh: no campaign corpus $BUILD/corpus/$t" >&2; exit 1; }
+      before=$(ls "$ROOT/fuzz/corpus/$t" | wc -l)
+      nice -n 19 "$exe" -merge=1 -timeout=10 -rss_limit_mb=2048 -close_fd_mask=1 \
+        "$ROOT/fuzz/corpus/$t" "$BUILD/corpus/$t" 2>&1 | grep -E "MERGE-OUTER: [0-9]+ new files" || true
+      echo "fuzz/corpus/$t: $before -> $(ls "$ROOT/fuzz/corpus/$t" | wc -l) files" \
+        "(campaign corpus: $(ls "$BUILD/corpus/$t" | wc -l))"
+    fi
     ;;
   *) usage ;;
 esac

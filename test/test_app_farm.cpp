@@ -21,6 +21,9 @@ namespace {
 using namespace vbme_test;
 namespace fs = std::filesystem;
 
+// Samples per pixel that make a 64x48 frame of the requeue test take a fraction of a second.
+constexpr int kRequeueSpp = 64;
+
 std::string farmCmd(const FaultInputs& in, const std::string& out, const std::string& extra) {
     return std::string(VBME_EXE) + " farm slurm --video '" + in.video + "' --scene '" + in.scene +
            "' --cameras '" + in.cameras + "' --out '" + out +
@@ -152,6 +155,109 @@ TEST(AppFarm, SlurmClusterMakesTheSameVideoAsOneMachine) {
         if (std::regex_search(s, m, std::regex("(\\d+) rendered"))) rendered += std::stoi(m[1]);
     }
     EXPECT_EQ(rendered, 6);
+}
+
+// Preemption: while the second render task of the array runs (its first frame written, its
+// last not yet), Slurm requeues it (`scontrol requeue`, what preemption with
+// PreemptMode=REQUEUE does); the task runs again, resumes its frames (its log says some were
+// already done), and the video is identical to one machine's.
+TEST(AppFarm, SlurmRequeuedTaskResumesToTheSameVideo) {
+    ScratchDir dir;
+    LocalSlurm slurm;
+    ASSERT_FALSE(slurm.dir.empty());
+    const std::string sdir = slurm.dir;
+    auto r = run(std::string("bash ") + VBME_SOURCE_DIR + "/scripts/slurm-local.sh start '" + sdir +
+                 "'");
+    if (r.code == 3) GTEST_SKIP() << "no Slurm cluster here: " << r.output;
+    slurm.started = true;
+    ASSERT_EQ(r.code, 0) << r.output;
+    const std::string env = "SLURM_CONF='" + sdir + "/slurm.conf' ";
+    // frames slow enough (more samples) for the requeue to land while a task renders
+    const int n = 6, spp = kRequeueSpp;
+    const FaultInputs in = makeFaultInputs(dir, Size(64, 48), n);
+    const std::string ref = dir / "ref.mkv", spp_arg = " --spp " + std::to_string(spp);
+    const double t_one = secondsOf([&] { r = run(insertCmd(in, ref, dir / "ref_work", spp_arg)); });
+    ASSERT_EQ(r.code, 0) << r.output;
+    const std::string out = dir / "farm.mkv", frames = dir / "farm_work/frames";
+    const auto t0 = std::chrono::steady_clock::now();
+    r = run(env + farmCmd(in, out, "--tasks 2 --cpus 1 --submit" + spp_arg));
+    ASSERT_EQ(r.code, 0) << r.output;
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(r.output, m, std::regex("render (\\d+) \\(array\\)")))
+        << r.output;
+    const std::string task = m[1].str() + "_1";  // frames 3, 4, 5
+    // wait for task 1 to be running with frame 3 written and frame 5 not, then requeue it
+    bool requeued = false;
+    for (int i = 0; i < 1200 && !requeued; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        if (fs::exists(out)) break;
+        if (!fs::exists(frames + "/frame_00003.png") || fs::exists(frames + "/frame_00005.png"))
+            continue;
+        const auto q = run(env + "squeue -h -t R -j " + task + " -o %i");
+        if (q.output.find(task) == std::string::npos) continue;
+        const double t_rq =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const auto rq = run(env + "scontrol requeue " + task);
+        ASSERT_EQ(rq.code, 0) << rq.output;
+        // Slurm holds a requeued job back (pending, reason BeginTime: two minutes measured
+        // here) once the killed run has completed; let it start again at once
+        bool restarted = false;
+        for (int k = 0; k < 300 && !restarted; ++k) {
+            const auto st = run(env + "squeue -h -j " + task + " -o '%T %r'");
+            if (st.output.find("BeginTime") != std::string::npos)
+                run(env + "scontrol update JobId=" + task + " StartTime=now");
+            restarted = st.output.find("RUNNING") != std::string::npos ||
+                        st.output.find_first_not_of(" \n") == std::string::npos;
+            std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        }
+        EXPECT_TRUE(restarted) << "the requeued task did not start again within 30 s";
+        requeued = true;
+        std::printf("requeued task %s %.2f s after the submission\n", task.c_str(), t_rq);
+    }
+    ASSERT_TRUE(requeued) << "task " << task << " was never seen running mid-way";
+    std::string last_queue;
+    for (int i = 0; i < 1200; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        const auto q = run(env + "squeue -h -o '%i %T %r'");
+        last_queue = q.output;
+        if (q.code == 0 && q.output.find_first_not_of(" \n") == std::string::npos) break;
+        if (q.output.find("DependencyNeverSatisfied") != std::string::npos) break;  // failed
+    }
+    const double t_farm =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const auto show = run(env + "scontrol show job " + task);
+    std::printf(
+        "one machine: %.2f s; Slurm with task %s requeued: %.2f s (%s)\n", t_one, task.c_str(),
+        t_farm,
+        std::regex_search(show.output, m, std::regex("Restarts=\\d+")) ? m[0].str().c_str() : "?");
+    EXPECT_NE(show.output.find("Restarts=1"), std::string::npos) << show.output;
+    if (!fs::exists(out)) {
+        std::string logs;
+        for (const auto& e : fs::directory_iterator(dir / "farm_work/slurm"))
+            if (e.path().extension() == ".log") {
+                std::ifstream f(e.path());
+                logs += e.path().filename().string() + ":\n" +
+                        std::string((std::istreambuf_iterator<char>(f)),
+                                    std::istreambuf_iterator<char>());
+            }
+        FAIL() << "no video; the queue: " << last_queue << "\njob logs:\n" << logs;
+    }
+    const std::vector<Mat> got = videoFrames(out), want = videoFrames(ref);
+    ASSERT_EQ(got.size(), want.size());
+    for (size_t i = 0; i < got.size(); ++i)
+        EXPECT_TRUE(sameImage(got[i], want[i])) << "frame " << i;
+    // the requeued task's second run resumed: its log (rewritten by the rerun) counts frames
+    // already done
+    std::ifstream f(dir / ("farm_work/slurm/render_" + task + ".log"));
+    const std::string log((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    ASSERT_TRUE(std::regex_search(log, m,
+                                  std::regex("frames 3:6 of 6: (\\d+) rendered, (\\d+) "
+                                             "already done")))
+        << log;
+    std::printf("the requeued task's rerun: %s rendered, %s already done\n", m[1].str().c_str(),
+                m[2].str().c_str());
+    EXPECT_GE(std::stoi(m[2]), 1) << log;
+    EXPECT_EQ(std::stoi(m[1]) + std::stoi(m[2]), 3) << log;
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <set>
 
 #include <opencv2/vbme/calib/camera_tracking.hpp>
 
@@ -31,16 +33,29 @@ void runTrackCamera(const TrackCameraOptions& o) {
     using namespace cv;
     using namespace cv::vbme;
     namespace fs = std::filesystem;
-    checkOverwrite(o.out, o.common.force);
     const fs::path out(o.out);
     const std::string colmap_dir = (out.parent_path() / (out.stem().string() + "_colmap")).string();
-    if (!o.overlay.empty()) checkOverwrite(o.overlay, o.common.force);
-    if (!o.blender.empty()) checkOverwrite(o.blender, o.common.force);
-    checkOverwrite((out.parent_path() / (out.stem().string() + "_report.yml")).string(),
-                   o.common.force);
-    const Scene scene = Scene::read(o.scene);
+    const std::string report = (out.parent_path() / (out.stem().string() + "_report.yml")).string();
     const std::string work =
         o.work.empty() ? (out.parent_path() / (out.stem().string() + "_work")).string() : o.work;
+    // The outputs, the track last: its presence means the run finished. While they are written
+    // their names are listed in <work>/outputs_pending.txt, so that a run killed among them can
+    // be rerun (it replaces them) without --force; a finished run removes the list.
+    std::vector<std::string> outputs;
+    if (!o.overlay.empty()) outputs.push_back(o.overlay);
+    if (!o.blender.empty()) outputs.push_back(o.blender);
+    outputs.push_back(report);
+    outputs.push_back(o.out);
+    const std::string pending = (fs::path(work) / "outputs_pending.txt").string();
+    std::set<std::string> interrupted;
+    {
+        std::ifstream in(pending);
+        for (std::string line; std::getline(in, line);)
+            interrupted.insert(line);
+    }
+    for (const auto& p : outputs)
+        if (!interrupted.count(p)) checkOverwrite(p, o.common.force);
+    const Scene scene = Scene::read(o.scene);
 
     CameraTrackingOptions opt;
     opt.stride = o.stride;
@@ -64,6 +79,16 @@ void runTrackCamera(const TrackCameraOptions& o) {
     opt.colmap.vocab_tree = o.vocab_tree;
     CameraTrackingReport r;
     const CameraPath path = trackCameraVideo(o.video, scene, work, opt, &r);
+    {
+        AtomicFile pf(pending);
+        {
+            std::ofstream f(pf.tempPath());
+            for (const auto& p : outputs)
+                f << p << "\n";
+            if (!f.flush()) CV_Error(Error::StsError, "cannot write '" + pending + "'");
+        }
+        pf.commit();
+    }
 
     if (!o.overlay.empty()) {
         VideoReader reader(o.video);
@@ -89,9 +114,7 @@ void runTrackCamera(const TrackCameraOptions& o) {
         VideoReader reader(o.video);
         writeBlenderScript(o.blender, path, scene.room, reader.fps());
     }
-    path.write(o.out);
-    // The report beside the track.
-    const std::string report = (out.parent_path() / (out.stem().string() + "_report.yml")).string();
+    // The report beside the track, then the track.
     {
         AtomicFile rf(report);
         {
@@ -117,6 +140,9 @@ void runTrackCamera(const TrackCameraOptions& o) {
         }
         rf.commit();
     }
+    path.write(o.out);
+    std::error_code ec;
+    fs::remove(pending, ec);
     std::string stages;
     for (const auto& st : r.stage_seconds)
         stages += format("%s%s %.1f s", stages.empty() ? "" : ", ", st.first.c_str(), st.second);
@@ -145,7 +171,8 @@ void setupTrackCamera(CLI::App& app) {
         "--method full runs COLMAP on every frame instead. Writes the camera-path YAML (one entry\n"
         "per frame, source sfm, pnp or interpolated), a report (<out>_report.yml: stage times,\n"
         "counts, errors) and a COLMAP text model (<out>_colmap/). The work folder (default\n"
-        "<out>_work/ beside the output) keeps COLMAP's run: a second run resumes.");
+        "<out>_work/ beside the output) keeps COLMAP's run: a second run resumes. The track is\n"
+        "written last; a run killed while writing the outputs is rerun without --force.");
     app.add_option("--video", o->video, "Input video file or image folder")->required();
     app.add_option("--scene", o->scene,
                    "Scene file of frame 0 (from vbme calibrate): camera and room")

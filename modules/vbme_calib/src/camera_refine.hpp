@@ -3,15 +3,29 @@
 #ifndef VBME_CALIB_CAMERA_REFINE_HPP
 #define VBME_CALIB_CAMERA_REFINE_HPP
 
+#include <fstream>
 #include <map>
 #include <string>
 #include <vector>
 
 #include "opencv2/vbme/calib/camera_tracking.hpp"
+#include "opencv2/vbme/core/fileio.hpp"
 
 namespace cv {
 namespace vbme {
 namespace detail {
+
+/** Writes a one-line resume marker of the work folder (a finished stage and its settings)
+through AtomicFile: a run killed while writing it leaves no marker rather than a partial one. */
+inline void writeMarker(const std::string& path, const std::string& line) {
+    AtomicFile out(path);
+    {
+        std::ofstream f(out.tempPath());
+        f << line << "\n";
+        if (!f.flush()) CV_Error(Error::StsError, "cannot write '" + path + "'");
+    }
+    out.commit();
+}
 
 /** What refineTrack() did. */
 struct RefineSummary {

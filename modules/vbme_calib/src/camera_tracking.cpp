@@ -336,7 +336,7 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
             progress.tick();
         }
         progress.finish();
-        std::ofstream(marker.string()) << names.size() << " " << opt.stride << "\n";
+        detail::writeMarker(marker.string(), format("%zu %d", names.size(), opt.stride));
     }
     if (names.empty()) CV_Error(Error::StsError, "'" + video + "' holds no frame");
 
@@ -354,7 +354,7 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
         std::fflush(stdout);
         models =
             runColmapSfM(frames.string(), work_dir, frame0.camera.K, frame0.image_size, opt.colmap);
-        std::ofstream(done.string()) << models.size() << "\n";
+        detail::writeMarker(done.string(), std::to_string(models.size()));
     }
     return alignModelWithFrame0(models, names, frame0, work_dir, opt, total, report);
 }

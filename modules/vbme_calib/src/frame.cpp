@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "opencv2/vbme/calib/frame_calibration.hpp"
+#include "opencv2/vbme/core/yaml_guard.hpp"
 #include "room_internal.hpp"
 
 namespace cv {
@@ -92,6 +93,7 @@ FrameAnnotation FrameAnnotation::read(const std::string& path) {
         std::string text = ss.str();
         const std::string ext = path.size() >= 4 ? path.substr(path.find_last_of('.') + 1) : "";
         const bool json = ext == "json" || ext == "JSON";
+        if (!json) checkYamlTopLevel(text, path);
         if (!json && text.compare(0, 5, "%YAML") != 0) text = "%YAML:1.0\n" + text;
         fs.open(text, FileStorage::READ | FileStorage::MEMORY |
                           (json ? FileStorage::FORMAT_JSON : FileStorage::FORMAT_YAML));

@@ -278,7 +278,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
                 co.abs_pose_min_num_inliers = std::min(co.abs_pose_min_num_inliers, 15);
                 models = runColmapSfM(kdir.string(), work_dir, frame0.camera.K, frame0.image_size,
                                       co, &rep.stage_seconds);
-                std::ofstream(done.string()) << key_list.str() << "\n";
+                detail::writeMarker(done.string(), key_list.str());
             } else {
                 rep.stage_seconds.emplace_back("colmap (reused)", 0.0);
             }

@@ -1,5 +1,6 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 #include "opencv2/vbme/core/fileio.hpp"
+#include "opencv2/vbme/core/yaml_guard.hpp"
 
 #include <unistd.h>
 
@@ -9,6 +10,8 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <system_error>
 
 #include <opencv2/imgcodecs.hpp>
@@ -101,8 +104,44 @@ void imwriteAtomic(const std::string& path, InputArray img, const std::vector<in
     out.commit();
 }
 
+void checkYamlTopLevel(const std::string& text, const std::string& path) {
+    const size_t first = text.find_first_not_of(" \t\r\n");
+    if (first == std::string::npos || text[first] == '{') return;
+    size_t pos = 0;
+    for (int line = 1; pos < text.size(); ++line) {
+        size_t end = text.find('\n', pos);
+        if (end == std::string::npos) end = text.size();
+        const std::string l = text.substr(pos, end - pos);
+        pos = end + 1;
+        const size_t c = l.find_first_not_of(" \t\r");
+        // a document start is "---" alone (OpenCV 4.6 also loops on "---L:0\n----\n---")
+        const bool doc_start =
+            l.compare(0, 3, "---") == 0 &&
+            (l.size() == 3 || l.find_first_not_of(" \t\r", 3) == std::string::npos);
+        if (c == std::string::npos || l[c] == '#' || (c == 0 && l[0] == '%') || doc_start) continue;
+        if (c > 0)
+            CV_Error(Error::StsParseError,
+                     format("%s: line %d: the top level is indented; expected 'key: value' "
+                            "lines starting at column 0",
+                            path.c_str(), line));
+        if (l[0] == '-' || l[0] == '[')
+            CV_Error(Error::StsParseError,
+                     format("%s: line %d: the top level is a list; expected 'key: value' lines",
+                            path.c_str(), line));
+        return;
+    }
+}
+
 FileStorage openForReading(const std::string& path, const std::string& what) {
     FileStorage fs;
+    {
+        std::ifstream in(path, std::ios::binary);
+        if (in) {
+            std::stringstream ss;
+            ss << in.rdbuf();
+            checkYamlTopLevel(ss.str(), path);
+        }
+    }
     try {
         fs.open(path, FileStorage::READ);
     } catch (const cv::Exception& e) {
