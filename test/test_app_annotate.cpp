@@ -436,7 +436,11 @@ TEST(AppAnnotate, ObjectPreviewIsADifferentialRenderIntoTheFrame) {
     std::printf("|preview - frame|: %.1f levels on the object, %.2f in the far corner\n", at_object,
                 far_away);
     EXPECT_GT(at_object, 10.0);
-    EXPECT_LT(far_away, 1.0);
+    // Far from the object the frame changes by the Monte Carlo noise of the light the cube takes
+    // from there, at 2 spp: measured 1.19 levels with ratio shadows (the preview composites as
+    // vbme insert does; the preview's lights are the annotation's, far dimmer than the frame, so
+    // the relative loss ratio shadows apply is larger than the absolute one), 0.10 additive.
+    EXPECT_LT(far_away, 0.05 * at_object);
     // Not on the floor: 422 with the reason; without --object: 404.
     r.body = format("{\"annotation\": %s, \"placement\": {\"place\": [160, 5]}}",
                     annotationJson(cam).c_str());
