@@ -348,7 +348,7 @@ struct VideoReader::Impl {
     std::string read_error;
     bool end_noted = false;
     bool count_estimated = false;  // count from a duration, not the container's frame count
-    int64_t steady_ticks = 0;  // the interval between frames so far, while it is one
+    int64_t steady_ticks = 0;      // the interval between frames so far, while it is one
     int steady_count = 0;
     bool steady_broken = false;
 
@@ -893,6 +893,16 @@ struct VideoSink::Impl {
     SwsPtr sws;
     AVPixelFormat pix_fmt = AV_PIX_FMT_NONE;
     bool opened = false;
+    // bit-rate floor (VideoSinkOptions::min_bitrate): the CRF now, the first frame sent with it
+    // (encoder ticks), bytes and time span of the packets of frames from that one on, and the
+    // video time of the next look at them
+    bool rate_floor = false;
+    double crf_now = 0;
+    int64_t crf_since = 0;
+    int64 rate_bytes = 0;
+    int64_t pkt_first = AV_NOPTS_VALUE, pkt_end = AV_NOPTS_VALUE;
+    double next_rate_check = 0.25;
+    void adjustRate(double seconds, int64_t pts);
 
     InputPtr ain;
     std::vector<AudioTrack> tracks;
@@ -1034,6 +1044,9 @@ void VideoSink::Impl::openEncoder(bool deep_frames) {
             enc->bit_rate = opt.bitrate;
         } else {
             av_opt_set(enc->priv_data, "crf", std::to_string(opt.crf).c_str(), 0);
+            // libx264 takes a new CRF between frames (x264_encoder_reconfig); libx265 does not
+            rate_floor = opt.min_bitrate > 0 && c == "h264";
+            crf_now = opt.crf;
         }
         av_opt_set(enc->priv_data, "preset", opt.preset.c_str(), 0);
         if (c == "h265") av_opt_set(enc->priv_data, "x265-params", "log-level=error", 0);
@@ -1056,14 +1069,19 @@ void VideoSink::Impl::openEncoder(bool deep_frames) {
     avcodec_parameters_from_context(vst->codecpar, enc.get());
     for (const auto& kv : opt.metadata)
         av_dict_set(&oc->metadata, kv.first.c_str(), kv.second.c_str(), 0);
-    av_dict_set(&oc->metadata, "encoder_settings",
-                (c == "h264" || c == "h265"
-                     ? (opt.bitrate > 0 ? format("%s %lld bit/s %s", codec->name,
-                                                 (long long)opt.bitrate, pf.c_str())
-                                        : format("%s crf %d %s", codec->name, opt.crf, pf.c_str()))
-                     : format("%s %s", codec->name, pf.c_str()))
-                    .c_str(),
-                0);
+    av_dict_set(
+        &oc->metadata, "encoder_settings",
+        (c == "h264" || c == "h265"
+             ? (opt.bitrate > 0
+                    ? format("%s %lld bit/s %s", codec->name, (long long)opt.bitrate, pf.c_str())
+                    : format("%s crf %d%s %s", codec->name, opt.crf,
+                             rate_floor
+                                 ? format(" min %lld bit/s", (long long)opt.min_bitrate).c_str()
+                                 : "",
+                             pf.c_str()))
+             : format("%s %s", codec->name, pf.c_str()))
+            .c_str(),
+        0);
     setupAudio();
     r = avio_open(&oc->pb, file->tempPath().c_str(), AVIO_FLAG_WRITE);
     if (r < 0) CV_Error(Error::StsError, "cannot create '" + file->tempPath() + "': " + avError(r));
@@ -1283,11 +1301,42 @@ void VideoSink::Impl::encode(AVFrame* f) {
         r = avcodec_receive_packet(enc.get(), pkt.get());
         if (r == AVERROR(EAGAIN) || r == AVERROR_EOF) break;
         if (r < 0) CV_Error(Error::StsError, "encoding '" + path + "' failed: " + avError(r));
+        if (rate_floor && pkt->pts != AV_NOPTS_VALUE && pkt->pts >= crf_since) {
+            rate_bytes += pkt->size;
+            if (pkt_first == AV_NOPTS_VALUE || pkt->pts < pkt_first) pkt_first = pkt->pts;
+            if (pkt_end == AV_NOPTS_VALUE || pkt->pts > pkt_end) pkt_end = pkt->pts;
+        }
         av_packet_rescale_ts(pkt.get(), enc->time_base, vst->time_base);
         pkt->stream_index = vst->index;
         r = av_interleaved_write_frame(oc.get(), pkt.get());
         if (r < 0) CV_Error(Error::StsError, "writing '" + path + "' failed: " + avError(r));
     }
+}
+
+// The bit-rate floor: four times per second of video, once the packets of at least 0.25 s of
+// frames sent at the current CRF are out (they lag the frames by x264's look-ahead), their rate
+// is compared with 1.1 x min_bitrate (the margin covers the start, encoded at the starting
+// CRF). H.264's bit rate roughly halves per +6 CRF, so the CRF moves by
+// 6 log2(rate / target), kept between 1 and the CRF asked for; the change applies to the frames
+// x264 has not encoded yet, those in its look-ahead included.
+void VideoSink::Impl::adjustRate(double seconds, int64_t pts) {
+    if (!rate_floor || seconds < next_rate_check) return;
+    next_rate_check = seconds + 0.25;
+    if (pkt_first == AV_NOPTS_VALUE || rate_bytes == 0) return;
+    const double span = (pkt_end - pkt_first) * av_q2d(enc->time_base) + 1.0 / fps;
+    if (span < 0.25) return;
+    const double rate = rate_bytes * 8.0 / span, target = 1.1 * (double)opt.min_bitrate;
+    const double crf =
+        std::max(1.0, std::min((double)opt.crf, crf_now + 6.0 * std::log2(rate / target)));
+    if (std::abs(crf - crf_now) < 0.5) return;
+    if (av_opt_set_double(enc->priv_data, "crf", crf, 0) < 0) {
+        rate_floor = false;
+        return;
+    }
+    crf_now = crf;
+    crf_since = pts;
+    rate_bytes = 0;
+    pkt_first = pkt_end = AV_NOPTS_VALUE;
 }
 
 VideoSink::~VideoSink() {
@@ -1396,6 +1445,7 @@ void VideoSink::write(InputArray _frame, double seconds) {
                             m.count, seconds));
         m.next_end = seconds + 1.0 / m.fps;
         m.pumpAudio(seconds, false);
+        m.adjustRate(seconds, m.vframe->pts);
         m.encode(m.vframe.get());
     }
     m.last_t = seconds;
@@ -1452,6 +1502,13 @@ VideoSinkOptions sinkOptionsFrom(const VideoReader& in, const std::string& out_p
     }
     if (!in.conversion().empty())
         o.metadata.emplace_back("comment", "vbme: input " + in.conversion());
+    // the input's bit rate as a floor when it was coded lossily (a lossless input's rate says
+    // nothing about the quality a lossy output needs)
+    if (o.bitrate == 0 && o.min_bitrate == 0 && in.bitRate() > 0) {
+        const AVCodec* dc = avcodec_find_decoder_by_name(in.codecName().c_str());
+        const AVCodecDescriptor* d = dc ? avcodec_descriptor_get(dc->id) : nullptr;
+        if (d && (d->props & AV_CODEC_PROP_LOSSY)) o.min_bitrate = in.bitRate();
+    }
     return o;
 }
 
