@@ -1,7 +1,8 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // Video decoding and encoding, frames per second, at 640x480 and 1920x1080: vbme's VideoReader
 // / VideoSink (FFmpeg's libraries) against OpenCV's VideoCapture / VideoWriter (the path they
-// replace) in the same run. items_per_second is frames per second.
+// replace) in the same run, and vbme's decoding with the former Y'CbCr conversion (swscale's
+// RGB path, BM_Decode_vbme_swsRgb). items_per_second is frames per second.
 //   build/perf/vbme_perf_core_video --benchmark_min_time=2
 #include <benchmark/benchmark.h>
 
@@ -12,6 +13,7 @@
 #include <opencv2/vbme/core.hpp>
 #include <opencv2/videoio.hpp>
 
+#include <stdlib.h>
 #include <unistd.h>
 
 using namespace cv;
@@ -60,14 +62,17 @@ const std::vector<Mat>& frames(Size size) {
     return v;
 }
 
-// One H.264 file per size for the decoders, written by vbme's default encoder.
-const std::string& clip(Size size) {
+// One file per size and codec for the decoders: H.264 as vbme writes it by default (what
+// phones and editors deliver), FFV1 (lossless, as the perf and test clips of material editing).
+const std::string& clip(Size size, bool ffv1 = false) {
     static std::map<int, std::string> files;
     auto& dir = scratch();
-    auto& f = files[size.width];
+    auto& f = files[size.width * 2 + (ffv1 ? 1 : 0)];
     if (f.empty()) {
-        f = dir / ("clip_" + std::to_string(size.width) + ".mp4");
-        VideoSink s(f, 30, size);
+        f = dir / ("clip_" + std::to_string(size.width) + (ffv1 ? ".mkv" : ".mp4"));
+        VideoSinkOptions so;
+        if (ffv1) so.codec = "ffv1";
+        VideoSink s(f, 30, size, so);
         for (const Mat& m : frames(size))
             s.write(m);
         s.close();
@@ -77,7 +82,7 @@ const std::string& clip(Size size) {
 
 void BM_Decode_vbme(benchmark::State& st) {
     const Size size = sizeOf(st.range(0));
-    const std::string& f = clip(size);
+    const std::string& f = clip(size, st.range(1) == 1);
     Mat m;
     int64_t n = 0;
     for (auto _ : st) {
@@ -88,9 +93,17 @@ void BM_Decode_vbme(benchmark::State& st) {
     st.SetItemsProcessed(n);
 }
 
+// The former conversion (swscale's accurate RGB path, selected by VBME_SWS_RGB), for the
+// ratio of the two in the same run.
+void BM_Decode_vbme_swsRgb(benchmark::State& st) {
+    setenv("VBME_SWS_RGB", "1", 1);
+    BM_Decode_vbme(st);
+    unsetenv("VBME_SWS_RGB");
+}
+
 void BM_Decode_OpenCV(benchmark::State& st) {
     const Size size = sizeOf(st.range(0));
-    const std::string& f = clip(size);
+    const std::string& f = clip(size, st.range(1) == 1);
     Mat m;
     int64_t n = 0;
     for (auto _ : st) {
@@ -138,7 +151,23 @@ void BM_Encode_OpenCV(benchmark::State& st) {
 
 }  // namespace
 
-BENCHMARK(BM_Decode_vbme)->Arg(640)->Arg(1920)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK(BM_Decode_OpenCV)->Arg(640)->Arg(1920)->Unit(benchmark::kMillisecond)->UseRealTime();
+// second argument: 0 H.264, 1 FFV1
+BENCHMARK(BM_Decode_vbme)
+    ->Args({640, 0})
+    ->Args({1920, 0})
+    ->Args({640, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_Decode_vbme_swsRgb)
+    ->Args({640, 0})
+    ->Args({1920, 0})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(BM_Decode_OpenCV)
+    ->Args({640, 0})
+    ->Args({1920, 0})
+    ->Args({640, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_Encode_vbme)->Arg(640)->Arg(1920)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Encode_OpenCV)->Arg(640)->Arg(1920)->Unit(benchmark::kMillisecond)->UseRealTime();

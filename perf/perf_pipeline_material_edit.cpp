@@ -14,6 +14,8 @@
 #include <filesystem>
 #include <string>
 
+#include <stdlib.h>
+
 #include <opencv2/vbme/core.hpp>
 #include <opencv2/vbme/datasets/rendered_ball_clip.hpp>
 #include <opencv2/vbme/pipeline/material_edit.hpp>
@@ -27,7 +29,7 @@ namespace fs = std::filesystem;
 
 struct Clip {
     fs::path dir;
-    std::string video, mask;
+    std::string video, video_h264, mask;
     double focal = 0;
     int frames = 0;
     Clip() {
@@ -45,6 +47,16 @@ struct Clip {
             fs::create_directories(dir);
             clip.write(video, mask);  // atomic: an interrupted render leaves no cache
         }
+        // the same frames as H.264 (vbme's default encode), as phones and editors deliver them
+        video_h264 = (dir / "input_h264.mp4").string();
+        if (!fs::exists(video_h264)) {
+            VideoReader r(video);
+            VideoSink s(video_h264, r.fps(), r.frameSize());
+            Mat f;
+            while (r.read(f))
+                s.write(f);
+            s.close();
+        }
     }
 };
 
@@ -53,10 +65,10 @@ const Clip& clip() {
     return c;
 }
 
-void BM_MaterialEdit(benchmark::State& state, const char* material) {
+void BM_MaterialEdit(benchmark::State& state, const char* material, bool h264 = false) {
     const Clip& c = clip();
     MaterialEditParams p;
-    p.video = c.video;
+    p.video = h264 ? c.video_h264 : c.video;
     p.first_mask = c.mask;
     p.out = (c.dir / (std::string("out_") + material + ".mp4")).string();
     p.material = Material::preset(material);
@@ -77,7 +89,8 @@ void BM_MaterialEdit(benchmark::State& state, const char* material) {
     state.counters["fps"] = benchmark::Counter(frames, benchmark::Counter::kIsRate);
     for (const auto& [name, s] : stages)
         state.counters[name + "_ms"] = frames > 0 ? 1000 * s / frames : 0.0;  // per frame
-    state.SetLabel(std::string(material) + ", 640x480, " + std::to_string(c.frames) + " frames");
+    state.SetLabel(std::string(material) + ", 640x480, " + std::to_string(c.frames) + " frames" +
+                   (h264 ? ", H.264 input" : ", FFV1 input"));
 }
 
 void BM_Chrome(benchmark::State& s) {
@@ -86,7 +99,19 @@ void BM_Chrome(benchmark::State& s) {
 void BM_Glass(benchmark::State& s) {
     BM_MaterialEdit(s, "glass");
 }
+// H.264 input, with vbme's Y'CbCr conversion and with the former one (swscale's RGB path,
+// VBME_SWS_RGB) in the same run
+void BM_Chrome_H264(benchmark::State& s) {
+    BM_MaterialEdit(s, "chrome", true);
+}
+void BM_Chrome_H264_swsRgb(benchmark::State& s) {
+    setenv("VBME_SWS_RGB", "1", 1);
+    BM_MaterialEdit(s, "chrome", true);
+    unsetenv("VBME_SWS_RGB");
+}
 BENCHMARK(BM_Chrome)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
+BENCHMARK(BM_Chrome_H264)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
+BENCHMARK(BM_Chrome_H264_swsRgb)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 BENCHMARK(BM_Glass)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 
 }  // namespace

@@ -125,6 +125,7 @@ inline cv::vbme::VideoSinkOptions changedVideoSinkOptions() {
     o.crf = 20;
     o.preset = "slow";
     o.bitrate = 4000000;
+    o.min_bitrate = 2500000;
     o.pix_fmt = "yuv444p";
     o.color.primaries = 9;
     o.color.transfer = 14;

@@ -136,6 +136,9 @@ TEST(CoreParams, VideoSinkOptionsRoundTripAndChecks) {
     bad.time_base = Vec2i(1, 0);
     expectRejected(bad, "time_base");
     bad = VideoSinkOptions();
+    bad.min_bitrate = -1;
+    expectRejected(bad, "min_bitrate");
+    bad = VideoSinkOptions();
     bad.color.range = -1;  // nested struct: named by its own field
     expectRejected(bad, "range");
 }

@@ -568,3 +568,86 @@ TEST(CoreVideoAv, AviCountsFrames) {
     }
     EXPECT_EQ(n, 5);
 }
+
+TEST(CoreVideoAv, InputBitRateIsAFloorForTheDefaultQuality) {
+    // "CRF 14 or the input's bit rate, whichever is higher": a lossy input coded at a higher
+    // rate than CRF 14 needs (x264 CRF 6) is re-encoded at about its rate and keeps more of it
+    // than CRF 14 does; a lossy input at a lower rate (CRF 30) is re-encoded as at CRF 14; a
+    // lossless input (FFV1) sets no floor.
+    vbme_test::ScratchDir tmp;
+    const Size size(192, 144);
+    // 4 s: the floor acts once x264's first packets are out, after its 40-frame look-ahead
+    const int n = 100, fps = 25;
+    auto write = [&](const std::string& path, const VideoSinkOptions& so) {
+        VideoSink s(path, fps, size, so);
+        for (int i = 0; i < n; ++i)
+            s.write(renderedFrame(truthFrame(i % 50, size), i));
+        s.close();
+    };
+    auto rateOf = [&](const std::string& path) {
+        return (double)std::filesystem::file_size(path) * 8 / ((double)n / fps);
+    };
+    auto decode = [](const std::string& path) {
+        std::vector<Mat> got;
+        VideoReader r(path);
+        Mat f;
+        while (r.read(f))
+            got.push_back(f.clone());
+        return got;
+    };
+    // @p input re-encoded at the default quality, with the floor sinkOptionsFrom sets (as every
+    // command does) or without it; returns the floor
+    auto reencode = [&](const std::string& input, const std::string& out, bool with_floor) {
+        VideoReader r(input);
+        VideoSinkOptions so = sinkOptionsFrom(r, out);
+        const int64 floor = so.min_bitrate;
+        if (!with_floor) so.min_bitrate = 0;
+        VideoSink s(out, r.fps(), r.frameSize(), so);
+        Mat f;
+        while (r.read(f))
+            s.write(f, r.timestamp());
+        s.close();
+        return floor;
+    };
+    VideoSinkOptions hi, lo, lossless;
+    hi.crf = 6;
+    lo.crf = 30;
+    lossless.codec = "ffv1";
+    write(tmp / "hi.mp4", hi);
+    write(tmp / "lo.mp4", lo);
+    write(tmp / "lossless.mkv", lossless);
+
+    const int64 floor_hi = reencode(tmp / "hi.mp4", tmp / "hi_out.mp4", true);
+    reencode(tmp / "hi.mp4", tmp / "hi_crf14.mp4", false);
+    const int64 floor_lo = reencode(tmp / "lo.mp4", tmp / "lo_out.mp4", true);
+    reencode(tmp / "lo.mp4", tmp / "lo_crf14.mp4", false);
+    const int64 floor_ll = reencode(tmp / "lossless.mkv", tmp / "ll_out.mp4", true);
+
+    const auto in_hi = decode(tmp / "hi.mp4"), out_hi = decode(tmp / "hi_out.mp4"),
+               crf14_hi = decode(tmp / "hi_crf14.mp4");
+    ASSERT_EQ((int)in_hi.size(), n);
+    ASSERT_EQ((int)out_hi.size(), n);
+    ASSERT_EQ((int)crf14_hi.size(), n);
+    const double r_in = rateOf(tmp / "hi.mp4"), r_out = rateOf(tmp / "hi_out.mp4"),
+                 r_crf14 = rateOf(tmp / "hi_crf14.mp4");
+    const double p_out = psnrOf(out_hi, in_hi), p_crf14 = psnrOf(crf14_hi, in_hi);
+    std::printf(
+        "bit-rate floor: input (x264 CRF 6) %.2f Mbit/s, reader's rate %.2f; re-encoded with the "
+        "floor %.2f Mbit/s, %.2f dB against the input's frames; at plain CRF 14 %.2f Mbit/s, "
+        "%.2f dB\n",
+        r_in / 1e6, floor_hi / 1e6, r_out / 1e6, p_out, r_crf14 / 1e6, p_crf14);
+    std::printf(
+        "low-rate input (CRF 30) %.2f Mbit/s: re-encoded with the floor %.3f Mbit/s, at plain "
+        "CRF 14 %.3f Mbit/s; lossless input: floor %lld\n",
+        rateOf(tmp / "lo.mp4") / 1e6, rateOf(tmp / "lo_out.mp4") / 1e6,
+        rateOf(tmp / "lo_crf14.mp4") / 1e6, (long long)floor_ll);
+    EXPECT_GT(floor_hi, 0.8 * r_in);    // the video stream's rate, as the reader gives it
+    EXPECT_GT(r_in, 1.5 * r_crf14);     // above what CRF 14 spends: the floor must act
+    EXPECT_GT(r_out, 0.75 * floor_hi);  // the first ~2 s are encoded at CRF 14
+    EXPECT_GT(p_out, p_crf14 + 0.5);
+    // below the CRF's rate the floor changes nothing (the same packets; the file differs only
+    // by the encoder-settings tag); a lossless input sets none
+    EXPECT_GT(floor_lo, 0);
+    EXPECT_NEAR(rateOf(tmp / "lo_out.mp4"), rateOf(tmp / "lo_crf14.mp4"), 2000.0);
+    EXPECT_EQ(floor_ll, 0);
+}

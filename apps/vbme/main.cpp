@@ -32,7 +32,8 @@ void addVideoOutputOptions(CLI::App& app, cv::vbme::VideoSinkOptions& opts) {
                    "as out/%05d.png")
         ->check(CLI::IsMember({"h264", "h265", "prores", "ffv1", "png", "exr"}));
     app.add_option("--crf", opts.crf,
-                   "Quality of h264/h265 (constant rate factor, lower is better)")
+                   "Quality of h264/h265 (constant rate factor, lower is better); h264 output "
+                   "from a lossy input keeps at least the input's bit rate")
         ->check(CLI::Range(0, 51))
         ->capture_default_str();
     app.add_option("--pix-fmt", opts.pix_fmt,

@@ -330,6 +330,9 @@ struct VideoReader::Impl {
     SwsPtr sws;
     int sws_w = 0, sws_h = 0;
     AVPixelFormat sws_src = AV_PIX_FMT_NONE, sws_dst = AV_PIX_FMT_NONE;
+    SwsPtr chroma_sws;  // 8-bit Y'CbCr: chroma planes to full size (convertYuv8)
+    int chroma_w = 0, chroma_h = 0;
+    AVPixelFormat chroma_src = AV_PIX_FMT_NONE;
     int vidx = -1;
     AVRational tb{1, 1};
     int64_t first_pts = AV_NOPTS_VALUE, last_pts = AV_NOPTS_VALUE;
@@ -348,7 +351,7 @@ struct VideoReader::Impl {
     std::string read_error;
     bool end_noted = false;
     bool count_estimated = false;  // count from a duration, not the container's frame count
-    int64_t steady_ticks = 0;  // the interval between frames so far, while it is one
+    int64_t steady_ticks = 0;      // the interval between frames so far, while it is one
     int steady_count = 0;
     bool steady_broken = false;
 
@@ -369,6 +372,7 @@ struct VideoReader::Impl {
     Mat convert(const AVFrame* f);
     void repeatLost(const std::vector<int64_t>& at);
     bool fill();  // pushes the next frame(s) to the queue; false at the end
+    Mat convertYuv8(const AVFrame* f);
 };
 
 void VideoReader::Impl::openVideo() {
@@ -525,9 +529,110 @@ void VideoReader::Impl::repeatLost(const std::vector<int64_t>& at) {
     }
 }
 
+// Luma and chroma weights (Kr, Kb) of a swscale colourspace.
+static void lumaWeights(int sws_cs, double& kr, double& kb) {
+    switch (sws_cs) {
+        case SWS_CS_ITU709:
+            kr = 0.2126, kb = 0.0722;
+            break;
+        case SWS_CS_BT2020:
+            kr = 0.2627, kb = 0.0593;
+            break;
+        case SWS_CS_FCC:
+            kr = 0.30, kb = 0.11;
+            break;
+        case SWS_CS_SMPTE240M:
+            kr = 0.212, kb = 0.087;
+            break;
+        default:  // BT.601
+            kr = 0.299, kb = 0.114;
+    }
+}
+
+bool isYuv8(AVPixelFormat f) {
+    return f == AV_PIX_FMT_YUV420P || f == AV_PIX_FMT_YUVJ420P || f == AV_PIX_FMT_YUV422P ||
+           f == AV_PIX_FMT_YUVJ422P || f == AV_PIX_FMT_YUV444P || f == AV_PIX_FMT_YUVJ444P;
+}
+
+// 8-bit Y'CbCr (4:2:0, 4:2:2, 4:4:4) to BGR24, as accurate as swscale's accurate RGB path
+// (full chroma interpolation, exact rounding) but faster: swscale scales the chroma planes
+// alone to full size (Lanczos: on test_core_video_av's clip it gives the accurate path's
+// 38.22 dB, where bicubic gives 38.16 and bilinear 37.80), then the matrix is applied by
+// OpenCV's vectorised transform (rounding to nearest) in parallel stripes. VBME_SWS_RGB=1 in
+// the environment selects swscale's RGB path instead (for comparisons).
+Mat VideoReader::Impl::convertYuv8(const AVFrame* f) {
+    const AVPixelFormat src = (AVPixelFormat)f->format;
+    const AVPixFmtDescriptor* d = av_pix_fmt_desc_get(src);
+    const bool full =
+        isFullRangeFormat(src) || f->color_range == AVCOL_RANGE_JPEG ||
+        (f->color_range == AVCOL_RANGE_UNSPECIFIED && color.range == AVCOL_RANGE_JPEG);
+    const uint8_t* planes[3] = {f->data[0], f->data[1], f->data[2]};
+    size_t steps[3] = {(size_t)f->linesize[0], (size_t)f->linesize[1], (size_t)f->linesize[2]};
+    FramePtr up;
+    if (d->log2_chroma_w || d->log2_chroma_h) {
+        const AVPixelFormat dst = isFullRangeFormat(src) ? AV_PIX_FMT_YUVJ444P : AV_PIX_FMT_YUV444P;
+        if (!chroma_sws || chroma_w != f->width || chroma_h != f->height || chroma_src != src) {
+            chroma_sws.reset(sws_getContext(
+                f->width, f->height, src, f->width, f->height, dst,
+                SWS_LANCZOS | SWS_ACCURATE_RND | SWS_FULL_CHR_H_INT | SWS_FULL_CHR_H_INP, nullptr,
+                nullptr, nullptr));
+            if (!chroma_sws)
+                CV_Error(Error::StsError,
+                         format("'%s': cannot convert pixel format %s", source.c_str(),
+                                nameOr(av_get_pix_fmt_name(src), "?")));
+            chroma_w = f->width;
+            chroma_h = f->height;
+            chroma_src = src;
+        }
+        up.reset(av_frame_alloc());
+        up->format = dst;
+        up->width = f->width;
+        up->height = f->height;
+        const int r = sws_scale_frame(chroma_sws.get(), up.get(), f);
+        if (r < 0)
+            CV_Error(Error::StsError, format("'%s': pixel conversion failed (%s)", source.c_str(),
+                                             avError(r).c_str()));
+        for (int k = 0; k < 3; ++k) {
+            planes[k] = up->data[k];
+            steps[k] = (size_t)up->linesize[k];
+        }
+    }
+    const int matrix = f->colorspace != AVCOL_SPC_UNSPECIFIED ? f->colorspace : color.matrix;
+    double kr, kb;
+    lumaWeights(swsColorspace(matrix, f->height), kr, kb);
+    const double kg = 1 - kr - kb;
+    const double ys = full ? 1.0 : 255.0 / 219.0, cs = full ? 1.0 : 255.0 / 224.0;
+    const double yo = full ? 0.0 : 16.0;
+    // rows: B, G, R from (Y', Cb, Cr, 1)
+    const double bu = cs * 2 * (1 - kb), rv = cs * 2 * (1 - kr);
+    const double gu = -cs * 2 * (1 - kb) * kb / kg, gv = -cs * 2 * (1 - kr) * kr / kg;
+    const Matx34f m((float)ys, (float)bu, 0.f, (float)(-ys * yo - bu * 128),  //
+                    (float)ys, (float)gu, (float)gv, (float)(-ys * yo - (gu + gv) * 128), (float)ys,
+                    0.f, (float)rv, (float)(-ys * yo - rv * 128));
+    Mat out(f->height, f->width, CV_8UC3);
+    const Mat yp(f->height, f->width, CV_8U, (void*)planes[0], steps[0]);
+    const Mat up_(f->height, f->width, CV_8U, (void*)planes[1], steps[1]);
+    const Mat vp(f->height, f->width, CV_8U, (void*)planes[2], steps[2]);
+    parallel_for_(
+        Range(0, f->height),
+        [&](const Range& rows) {
+            Mat yuv;
+            merge(std::vector<Mat>{yp.rowRange(rows), up_.rowRange(rows), vp.rowRange(rows)}, yuv);
+            Mat dst = out.rowRange(rows);
+            transform(yuv, dst, m);
+        },
+        8);
+    return out;
+}
+
 Mat VideoReader::Impl::convert(const AVFrame* f) {
     const AVPixelFormat src = (AVPixelFormat)f->format;
     const bool deep = hdr || opt.depth == CV_16U;
+    if (!deep && isYuv8(src) && !std::getenv("VBME_SWS_RGB")) {
+        Mat out = convertYuv8(f);
+        if (rotate_code >= 0) rotate(out, out, rotate_code);
+        return out;
+    }
     const AVPixelFormat dst = deep ? AV_PIX_FMT_BGR48LE : AV_PIX_FMT_BGR24;
     // accurate conversion (full chroma interpolation, exact rounding: the fast path loses
     // 1.3 dB on test_core_video_av's clip), spread over slice threads
@@ -893,6 +998,16 @@ struct VideoSink::Impl {
     SwsPtr sws;
     AVPixelFormat pix_fmt = AV_PIX_FMT_NONE;
     bool opened = false;
+    // bit-rate floor (VideoSinkOptions::min_bitrate): the CRF now, the first frame sent with it
+    // (encoder ticks), bytes and time span of the packets of frames from that one on, and the
+    // video time of the next look at them
+    bool rate_floor = false;
+    double crf_now = 0;
+    int64_t crf_since = 0;
+    int64 rate_bytes = 0;
+    int64_t pkt_first = AV_NOPTS_VALUE, pkt_end = AV_NOPTS_VALUE;
+    double next_rate_check = 0.25;
+    void adjustRate(double seconds, int64_t pts);
 
     InputPtr ain;
     std::vector<AudioTrack> tracks;
@@ -1034,6 +1149,9 @@ void VideoSink::Impl::openEncoder(bool deep_frames) {
             enc->bit_rate = opt.bitrate;
         } else {
             av_opt_set(enc->priv_data, "crf", std::to_string(opt.crf).c_str(), 0);
+            // libx264 takes a new CRF between frames (x264_encoder_reconfig); libx265 does not
+            rate_floor = opt.min_bitrate > 0 && c == "h264";
+            crf_now = opt.crf;
         }
         av_opt_set(enc->priv_data, "preset", opt.preset.c_str(), 0);
         if (c == "h265") av_opt_set(enc->priv_data, "x265-params", "log-level=error", 0);
@@ -1056,14 +1174,19 @@ void VideoSink::Impl::openEncoder(bool deep_frames) {
     avcodec_parameters_from_context(vst->codecpar, enc.get());
     for (const auto& kv : opt.metadata)
         av_dict_set(&oc->metadata, kv.first.c_str(), kv.second.c_str(), 0);
-    av_dict_set(&oc->metadata, "encoder_settings",
-                (c == "h264" || c == "h265"
-                     ? (opt.bitrate > 0 ? format("%s %lld bit/s %s", codec->name,
-                                                 (long long)opt.bitrate, pf.c_str())
-                                        : format("%s crf %d %s", codec->name, opt.crf, pf.c_str()))
-                     : format("%s %s", codec->name, pf.c_str()))
-                    .c_str(),
-                0);
+    av_dict_set(
+        &oc->metadata, "encoder_settings",
+        (c == "h264" || c == "h265"
+             ? (opt.bitrate > 0
+                    ? format("%s %lld bit/s %s", codec->name, (long long)opt.bitrate, pf.c_str())
+                    : format("%s crf %d%s %s", codec->name, opt.crf,
+                             rate_floor
+                                 ? format(" min %lld bit/s", (long long)opt.min_bitrate).c_str()
+                                 : "",
+                             pf.c_str()))
+             : format("%s %s", codec->name, pf.c_str()))
+            .c_str(),
+        0);
     setupAudio();
     r = avio_open(&oc->pb, file->tempPath().c_str(), AVIO_FLAG_WRITE);
     if (r < 0) CV_Error(Error::StsError, "cannot create '" + file->tempPath() + "': " + avError(r));
@@ -1283,11 +1406,42 @@ void VideoSink::Impl::encode(AVFrame* f) {
         r = avcodec_receive_packet(enc.get(), pkt.get());
         if (r == AVERROR(EAGAIN) || r == AVERROR_EOF) break;
         if (r < 0) CV_Error(Error::StsError, "encoding '" + path + "' failed: " + avError(r));
+        if (rate_floor && pkt->pts != AV_NOPTS_VALUE && pkt->pts >= crf_since) {
+            rate_bytes += pkt->size;
+            if (pkt_first == AV_NOPTS_VALUE || pkt->pts < pkt_first) pkt_first = pkt->pts;
+            if (pkt_end == AV_NOPTS_VALUE || pkt->pts > pkt_end) pkt_end = pkt->pts;
+        }
         av_packet_rescale_ts(pkt.get(), enc->time_base, vst->time_base);
         pkt->stream_index = vst->index;
         r = av_interleaved_write_frame(oc.get(), pkt.get());
         if (r < 0) CV_Error(Error::StsError, "writing '" + path + "' failed: " + avError(r));
     }
+}
+
+// The bit-rate floor: four times per second of video, once the packets of at least 0.25 s of
+// frames sent at the current CRF are out (they lag the frames by x264's look-ahead), their rate
+// is compared with 1.1 x min_bitrate (the margin covers the start, encoded at the starting
+// CRF). H.264's bit rate roughly halves per +6 CRF, so the CRF moves by
+// 6 log2(rate / target), kept between 1 and the CRF asked for; the change applies to the frames
+// x264 has not encoded yet, those in its look-ahead included.
+void VideoSink::Impl::adjustRate(double seconds, int64_t pts) {
+    if (!rate_floor || seconds < next_rate_check) return;
+    next_rate_check = seconds + 0.25;
+    if (pkt_first == AV_NOPTS_VALUE || rate_bytes == 0) return;
+    const double span = (pkt_end - pkt_first) * av_q2d(enc->time_base) + 1.0 / fps;
+    if (span < 0.25) return;
+    const double rate = rate_bytes * 8.0 / span, target = 1.1 * (double)opt.min_bitrate;
+    const double crf =
+        std::max(1.0, std::min((double)opt.crf, crf_now + 6.0 * std::log2(rate / target)));
+    if (std::abs(crf - crf_now) < 0.5) return;
+    if (av_opt_set_double(enc->priv_data, "crf", crf, 0) < 0) {
+        rate_floor = false;
+        return;
+    }
+    crf_now = crf;
+    crf_since = pts;
+    rate_bytes = 0;
+    pkt_first = pkt_end = AV_NOPTS_VALUE;
 }
 
 VideoSink::~VideoSink() {
@@ -1396,6 +1550,7 @@ void VideoSink::write(InputArray _frame, double seconds) {
                             m.count, seconds));
         m.next_end = seconds + 1.0 / m.fps;
         m.pumpAudio(seconds, false);
+        m.adjustRate(seconds, m.vframe->pts);
         m.encode(m.vframe.get());
     }
     m.last_t = seconds;
@@ -1452,6 +1607,13 @@ VideoSinkOptions sinkOptionsFrom(const VideoReader& in, const std::string& out_p
     }
     if (!in.conversion().empty())
         o.metadata.emplace_back("comment", "vbme: input " + in.conversion());
+    // the input's bit rate as a floor when it was coded lossily (a lossless input's rate says
+    // nothing about the quality a lossy output needs)
+    if (o.bitrate == 0 && o.min_bitrate == 0 && in.bitRate() > 0) {
+        const AVCodec* dc = avcodec_find_decoder_by_name(in.codecName().c_str());
+        const AVCodecDescriptor* d = dc ? avcodec_descriptor_get(dc->id) : nullptr;
+        if (d && (d->props & AV_CODEC_PROP_LOSSY)) o.min_bitrate = in.bitRate();
+    }
     return o;
 }
 

@@ -63,6 +63,7 @@ void VideoSinkOptions::read(const FileNode& fn) {
     in("crf", crf);
     in("preset", preset);
     in("bitrate", bitrate);
+    in("min_bitrate", min_bitrate);
     in("pix_fmt", pix_fmt);
     in("color", color);
     in("audio_from", audio_from);
@@ -87,6 +88,7 @@ void VideoSinkOptions::read(const FileNode& fn) {
 
 void VideoSinkOptions::write(FileStorage& fs) const {
     fs << "codec" << codec << "crf" << crf << "preset" << preset << "bitrate" << (double)bitrate;
+    fs << "min_bitrate" << (double)min_bitrate;
     fs << "pix_fmt" << pix_fmt;
     fs << "color"
        << "{";
@@ -112,6 +114,7 @@ void VideoSinkOptions::check() const {
                                        "or exr");
     checkParam(crf >= 0 && crf <= 51, w, "crf", crf, "0..51");
     checkParam(bitrate >= 0, w, "bitrate", (double)bitrate, ">= 0 bit/s (0: use the CRF)");
+    checkParam(min_bitrate >= 0, w, "min_bitrate", (double)min_bitrate, ">= 0 bit/s (0: none)");
     checkParam((time_base[0] == 0 && time_base[1] == 0) || (time_base[0] > 0 && time_base[1] > 0),
                w, "time_base", time_base[0],
                "{0, 0} (automatic) or two positive numbers {num, den}");

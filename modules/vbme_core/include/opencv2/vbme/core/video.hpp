@@ -170,6 +170,12 @@ struct CV_EXPORTS VideoSinkOptions {
     /** When > 0 (h264/h265): average bit rate in bit/s to encode at instead of the CRF (e.g.
     to match an input's rate, VideoReader::bitRate()). */
     int64 bitrate = 0;
+    /** When > 0 (h264, CRF mode): the lowest average bit rate in bit/s wanted, e.g. the
+    input's (set by sinkOptionsFrom() for a lossy input). The encoder starts at @ref crf; four
+    times per second of video the CRF is lowered (never raised above @ref crf) while the rate
+    of the packets so far is below 1.1 × this, so the output gets the CRF's rate or this one,
+    whichever is higher (doc/vbme_core.md, "Writing", Quality). */
+    int64 min_bitrate = 0;
     /** Pixel format of the encoded video: "" (default: yuv420p for h264/h265, yuv422p10le for
     prores, bgr0 for ffv1) or e.g. "yuv444p", "yuv420p10le". */
     std::string pix_fmt;
