@@ -1,8 +1,8 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // Video decoding and encoding, frames per second, at 640x480 and 1920x1080: vbme's VideoReader
 // / VideoSink (FFmpeg's libraries) against OpenCV's VideoCapture / VideoWriter (the path they
-// replace) in the same run, and vbme's decoding with the former Y'CbCr conversion (swscale's
-// RGB path, BM_Decode_vbme_swsRgb). items_per_second is frames per second.
+// replace) in the same run. items_per_second is frames per second. The fast Y'CbCr
+// conversion is measured by a second run with VBME_YUV=fast in the environment.
 //   build/perf/vbme_perf_core_video --benchmark_min_time=2
 #include <benchmark/benchmark.h>
 
@@ -93,13 +93,6 @@ void BM_Decode_vbme(benchmark::State& st) {
     st.SetItemsProcessed(n);
 }
 
-// The former conversion (swscale's accurate RGB path, selected by VBME_SWS_RGB), for the
-// ratio of the two in the same run.
-void BM_Decode_vbme_swsRgb(benchmark::State& st) {
-    setenv("VBME_SWS_RGB", "1", 1);
-    BM_Decode_vbme(st);
-    unsetenv("VBME_SWS_RGB");
-}
 
 void BM_Decode_OpenCV(benchmark::State& st) {
     const Size size = sizeOf(st.range(0));
@@ -156,11 +149,6 @@ BENCHMARK(BM_Decode_vbme)
     ->Args({640, 0})
     ->Args({1920, 0})
     ->Args({640, 1})
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime();
-BENCHMARK(BM_Decode_vbme_swsRgb)
-    ->Args({640, 0})
-    ->Args({1920, 0})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_Decode_OpenCV)

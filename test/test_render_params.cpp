@@ -80,6 +80,7 @@ TEST(RenderParams, CompositeParams) {
     CompositeParams p;
     p.alpha = 0.5f;
     p.response = Response::LINEAR;
+    p.shadows = CompositeParams::SHADOWS_RATIO;
     expectRoundTrip(p);
     expectUnknownKeyRefused<CompositeParams>("alpha");
     CompositeParams bad;
