@@ -5,6 +5,8 @@
 // linear light to the input and the truth alike (cv::vbme::CameraEffects).
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -145,6 +147,22 @@ TEST(PipelineInsertExposure, GainsFollowTheCameraAndTheObjectWithThem) {
         truth_fx[i] = applyLinearGains(truth[i], applied(i));
     }
     vbme_test::ScratchDir tmp;
+    // VBME_TEST_ALL_EFFECTS=1: also sensor noise (σ 1.5 code values, 0.7 px correlation,
+    // independent seeds for input and truth) and H.264 at 400 kbit/s on both, i.e. every camera
+    // effect of issue 21 at once with every compensation on (the defaults). Off in CI for time.
+    // Measured 2026-11-24: gains within 0.70 %, region PSNR auto 35.28 dB, off 32.38 dB, clean
+    // footage 32.45 dB (the truth's H.264 removes Cycles' own noise, so the figure can pass the
+    // clean one).
+    const char* all = std::getenv("VBME_TEST_ALL_EFFECTS");
+    if (all && std::string(all) == "1") {
+        for (int i = 0; i < n; ++i) {
+            plate_fx[i] = addSensorNoise(plate_fx[i], 1.5, 0.7, 100 + i);
+            truth_fx[i] = addSensorNoise(truth_fx[i], 1.5, 0.7, 500 + i);
+        }
+        plate_fx = compressH264(plate_fx, 12, 400000, tmp / "plate.mp4");
+        truth_fx = compressH264(truth_fx, 12, 400000, tmp / "truth.mp4");
+        std::printf("all camera effects: + noise 1.5 (0.7 px), H.264 400 kbit/s\n");
+    }
     const std::vector<int> frames = {3, 9};  // the drift's extremes
     const Insertion on = insert(plate_fx, path, frames, InsertionParams::EXPOSURE_AUTO, tmp / "on");
     const Insertion off =
