@@ -17,6 +17,7 @@
 #include <opencv2/vbme/core/video.hpp>
 #include <opencv2/vbme/pipeline/insertion.hpp>
 
+#include "insertion_blender_util.hpp"
 #include "vbme_test_util.hpp"
 
 namespace {
@@ -25,16 +26,8 @@ using namespace cv;
 using namespace cv::vbme;
 namespace fs = std::filesystem;
 
-// The object's neighbourhood in one frame: where the truth differs from the input by more
-// than the renders' noise (the sphere, its shadow, the light it reflects), dilated by 3 px.
 Mat influence(const Mat& input, const Mat& truth) {
-    Mat d;
-    absdiff(input, truth, d);
-    std::vector<Mat> ch;
-    split(d, ch);
-    Mat m = max(max(ch[0], ch[1]), ch[2]) > 8;
-    dilate(m, m, getStructuringElement(MORPH_ELLIPSE, Size(7, 7)));
-    return m;
+    return vbme_test::insertionInfluence(input, truth);
 }
 
 // With the true cameras and the true annotation, the composite near the object is closer to

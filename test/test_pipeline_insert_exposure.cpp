@@ -21,6 +21,7 @@
 #include <opencv2/vbme/datasets/camera_effects.hpp>
 #include <opencv2/vbme/pipeline/insertion.hpp>
 
+#include "insertion_blender_util.hpp"
 #include "vbme_test_util.hpp"
 
 namespace {
@@ -29,27 +30,10 @@ using namespace cv;
 using namespace cv::vbme;
 namespace fs = std::filesystem;
 
-const std::string kData = std::string(VBME_TEST_DATA_DIR) + "/insertion_blender";
-
-std::vector<Mat> readAll(const std::string& video) {
-    std::vector<Mat> out;
-    VideoReader r(video);
-    Mat f;
-    while (r.read(f))
-        out.push_back(f.clone());
-    return out;
-}
-
-// The object's neighbourhood in one frame (as in test_pipeline_insert_blender.cpp): where the
-// truth differs from the input by more than the renders' noise, dilated by 3 px.
+const std::string kData = vbme_test::insertionBlenderData();
+using vbme_test::readAllFrames;
 Mat influence(const Mat& input, const Mat& truth) {
-    Mat d;
-    absdiff(input, truth, d);
-    std::vector<Mat> ch;
-    split(d, ch);
-    Mat m = max(max(ch[0], ch[1]), ch[2]) > 8;
-    dilate(m, m, getStructuringElement(MORPH_ELLIPSE, Size(7, 7)));
-    return m;
+    return vbme_test::insertionInfluence(input, truth);
 }
 
 struct Insertion {
@@ -116,7 +100,8 @@ TEST(PipelineInsertExposure, GainsFollowTheCameraAndTheObjectWithThem) {
     std::vector<Mat> plate, truth;
     CameraPath path = CameraPath::read(kData + "/cameras.yml");
     {
-        const std::vector<Mat> p = readAll(kData + "/plate.mkv"), t = readAll(kData + "/truth.mkv");
+        const std::vector<Mat> p = readAllFrames(kData + "/plate.mkv"),
+                               t = readAllFrames(kData + "/truth.mkv");
         ASSERT_EQ(p.size(), t.size());
         ASSERT_EQ(p.size(), path.frames.size());
         std::vector<CameraPath::Frame> kept;

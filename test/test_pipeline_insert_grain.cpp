@@ -18,6 +18,7 @@
 #include <opencv2/vbme/datasets/camera_effects.hpp>
 #include <opencv2/vbme/pipeline/insertion.hpp>
 
+#include "insertion_blender_util.hpp"
 #include "vbme_test_util.hpp"
 
 namespace {
@@ -26,27 +27,10 @@ using namespace cv;
 using namespace cv::vbme;
 namespace fs = std::filesystem;
 
-const std::string kData = std::string(VBME_TEST_DATA_DIR) + "/insertion_blender";
-
-std::vector<Mat> readAll(const std::string& path) {
-    VideoReader r(path);
-    std::vector<Mat> frames;
-    Mat f;
-    while (r.read(f))
-        frames.push_back(f.clone());
-    return frames;
-}
-
-// The object's neighbourhood (as in PipelineInsertBlender): where the clean truth differs from
-// the clean input by more than 8, dilated by 3 px.
+const std::string kData = vbme_test::insertionBlenderData();
+using vbme_test::readAllFrames;
 Mat influence(const Mat& input, const Mat& truth) {
-    Mat d;
-    absdiff(input, truth, d);
-    std::vector<Mat> ch;
-    split(d, ch);
-    Mat m = max(max(ch[0], ch[1]), ch[2]) > 8;
-    dilate(m, m, getStructuringElement(MORPH_ELLIPSE, Size(7, 7)));
-    return m;
+    return vbme_test::insertionInfluence(input, truth);
 }
 
 // Noise level of an image on a region: the RMS over the region's pixels and the channels of
@@ -97,8 +81,8 @@ protected:
         const auto t0 = std::chrono::steady_clock::now();
         s_ = new Shared;
         Shared& s = *s_;
-        s.plate = readAll(kData + "/plate.mkv");
-        s.truth = readAll(kData + "/truth.mkv");
+        s.plate = readAllFrames(kData + "/plate.mkv");
+        s.truth = readAllFrames(kData + "/truth.mkv");
         ASSERT_EQ(s.plate.size(), s.truth.size());
         fs::create_directories(s.tmp.path() / "plate");
         for (size_t t = 0; t < s.plate.size(); ++t) {
