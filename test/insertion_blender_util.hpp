@@ -10,12 +10,26 @@
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/vbme/core/video.hpp>
+#include <opencv2/vbme/pipeline/insertion.hpp>
 
 namespace vbme_test {
 
 /** The Blender insertion clip's folder. */
 inline std::string insertionBlenderData() {
     return std::string(VBME_TEST_DATA_DIR) + "/insertion_blender";
+}
+
+/** Insertion options for the clip as it is: its input, its frame-0 scene with the sphere, its
+true cameras; the output and the work folder under @p dir. */
+inline cv::vbme::InsertionParams insertionBlenderParams(const std::string& dir) {
+    const std::string data = insertionBlenderData();
+    cv::vbme::InsertionParams ip;
+    ip.video = data + "/plate.mkv";
+    ip.scene = data + "/scene.yml";
+    ip.cameras = data + "/cameras.yml";
+    ip.out = dir + "/inserted.mkv";
+    ip.work = dir + "/work";
+    return ip;
 }
 
 /** Every frame of @p video (8-bit BGR). */

@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "insertion/stages.hpp"
+#include "opencv2/vbme/core/utility.hpp"
 #include "opencv2/vbme/pipeline/camera_match.hpp"
 
 namespace cv {
@@ -227,13 +228,9 @@ void viewRoom(const RoomView& v, const Camera& cam, Mat& out, Mat& valid) {
             uchar ok = 0;
             if (roomHit(v, cam, Point2d(x, y), f, t) && !v.tex[f].empty()) {
                 const Mat& T = v.tex[f];
+                c = bilinear<Vec3f>(T, t.x, t.y);
                 const int x0 = std::min(T.cols - 2, std::max(0, (int)std::floor(t.x)));
                 const int y0 = std::min(T.rows - 2, std::max(0, (int)std::floor(t.y)));
-                const float fx = (float)std::min(1.0, std::max(0.0, t.x - x0));
-                const float fy = (float)std::min(1.0, std::max(0.0, t.y - y0));
-                c = T.at<Vec3f>(y0, x0) * (1 - fx) * (1 - fy) +
-                    T.at<Vec3f>(y0, x0 + 1) * fx * (1 - fy) +
-                    T.at<Vec3f>(y0 + 1, x0) * (1 - fx) * fy + T.at<Vec3f>(y0 + 1, x0 + 1) * fx * fy;
                 ok = v.seen[f].empty() || v.seen[f].at<uchar>(y0, x0) ? 1 : 0;
             }
             out.at<Vec3f>(y, x) = c;
