@@ -349,14 +349,16 @@ TEST(AppFaults, ColmapCrashingOrHangingNamesTheStageAndTheLog) {
 
 // kill -9 of `vbme track-camera` (COLMAP on a small textured-room walk), at a random moment
 // (seeds 1 and 2) and just after COLMAP's run was recorded as finished (seed 3, so that the
-// resume of a finished stage is tried too). COLMAP does not repeat itself to the last digit
-// here even with one thread and a fixed seed (the uninterrupted run and a rerun that redoes
-// COLMAP differ by micrometres), so the oracle is: nothing under an output name is partial
-// (the track, when present, reads back whole, and so does its report); the rerun finishes;
-// a COLMAP run that had finished before the kill is reused, not redone (the rerun says
-// "colmap (reused)" and the model's files keep their contents and times); and the rerun's
-// track agrees with the uninterrupted run's (camera centres within 1 cm, the size of the
-// tracking error against the truth in AppTrackCamera.TracksAVideoWithStrideAndResumes).
+// resume of a finished stage is tried too). COLMAP does not repeat itself from run to run even
+// with one thread and a fixed seed: here the uninterrupted run and a rerun that redoes COLMAP
+// differed by micrometres, and on the CI machine two runs' camera centres differed by 1.3 cm
+// (both within the accuracy bound below). So the oracle is: nothing under an output name is
+// partial (the track, when present, reads back whole, and so does its report); the rerun
+// finishes; a COLMAP run that had finished before the kill is reused, not redone (the rerun
+// says "colmap (reused)" and the model's files keep their contents and times), and what is
+// made from it is exactly what a further run on the same work directory makes (camera centres
+// within 1 um); and every run's track is as accurate as the uninterrupted run must be (camera
+// centres within 2 cm RMS of the truth, as in AppTrackCamera.TracksAVideoWithStrideAndResumes).
 TEST(AppFaults, TrackCameraKilledAtRandomMomentsResumes) {
     if (vbme_test::run("colmap help").code != 0)
         GTEST_SKIP() << "the colmap program is not installed";
@@ -399,14 +401,17 @@ TEST(AppFaults, TrackCameraKilledAtRandomMomentsResumes) {
     const CameraPath ref = CameraPath::read(dir / "ref.yml");
     ASSERT_EQ(ref.frames.size(), (size_t)n);
     // it tracks: the camera centres within 2 cm of the truth, as in the tracking test
-    double ate2 = 0;
-    for (int i = 0; i < n; ++i)
-        ate2 += std::pow(norm(ref.camera(i).center() - truth[i].center()), 2);
-    const double ate = std::sqrt(ate2 / n);
+    auto ateOf = [&](const CameraPath& p) {
+        double ate2 = 0;
+        for (int i = 0; i < n; ++i)
+            ate2 += std::pow(norm(p.camera(i).center() - truth[i].center()), 2);
+        return std::sqrt(ate2 / n);
+    };
+    const double ate = ateOf(ref);
     EXPECT_LT(ate, 0.02) << r.output;
     std::printf("uninterrupted vbme track-camera: %.2f s, ATE %.2f cm\n", t_ref, ate * 100);
     int killed = 0, reused = 0;
-    double worst = 0;
+    double worst = 0, worst_ate = 0;
     for (int seed : {1, 2, 3}) {
         const std::string tag = format("run%d", seed), out = dir / (tag + ".yml"),
                           work = dir / (tag + "_work"), report = dir / (tag + "_report.yml"),
@@ -464,17 +469,32 @@ TEST(AppFaults, TrackCameraKilledAtRandomMomentsResumes) {
         }
         const CameraPath got = CameraPath::read(out);
         ASSERT_EQ(got.frames.size(), (size_t)n) << "seed " << seed;
-        for (int i = 0; i < n; ++i) {
-            const double d = norm(got.camera(i).center() - ref.camera(i).center());
-            worst = std::max(worst, d);
-            EXPECT_LT(d, 0.01) << "seed " << seed << " frame " << i;
-        }
+        const double got_ate = ateOf(got);
+        EXPECT_LT(got_ate, 0.02) << "seed " << seed;
+        worst_ate = std::max(worst_ate, got_ate);
+        for (int i = 0; i < n; ++i)
+            worst = std::max(worst, norm(got.camera(i).center() - ref.camera(i).center()));
         EXPECT_FALSE(fs::exists(work + "/outputs_pending.txt")) << "seed " << seed;
+        if (colmap_done) {
+            // what the resumed run made from the finished COLMAP run is what any run on it makes
+            const std::string again = dir / (tag + "_again.yml");
+            r = vbme_test::run(std::string(VBME_EXE) + " track-camera --video " +
+                               (dir / "walk.mkv") + " --scene " + (dir / "frame0.yml") + " --out " +
+                               again + " --work " + work + " --threads 1 --seed 1 --stride " +
+                               std::to_string(kTrackClipStride));
+            ASSERT_EQ(r.code, 0) << "seed " << seed << ": " << r.output;
+            EXPECT_NE(r.output.find("colmap (reused)"), std::string::npos) << r.output;
+            const CameraPath same = CameraPath::read(again);
+            ASSERT_EQ(same.frames.size(), (size_t)n);
+            for (int i = 0; i < n; ++i)
+                EXPECT_LT(norm(same.camera(i).center() - got.camera(i).center()), 1e-6)
+                    << "seed " << seed << " frame " << i;
+        }
     }
     std::printf(
         "%d of 3 runs killed, %d reruns reused a finished COLMAP run; camera centres within "
-        "%.1f um of the uninterrupted run's\n",
-        killed, reused, worst * 1e6);
+        "%.1f um of the uninterrupted run's; worst ATE %.2f cm\n",
+        killed, reused, worst * 1e6, worst_ate * 100);
     EXPECT_GE(killed, 2) << "the kills came too late to interrupt anything";
     EXPECT_GE(reused, 1) << "no kill came after COLMAP's run: its reuse was not tried";
 }

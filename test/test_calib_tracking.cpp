@@ -91,6 +91,43 @@ TEST(CalibColmap, TextModelRoundTrip) {
     }
 }
 
+// A run and its resume must pick the same model: several models are read largest first,
+// ties in the subdirectories' name order, whatever order the file system lists them in (a
+// resumed track-camera once picked another model than the run it resumed, 1.3 cm apart).
+TEST(CalibColmap, SeveralTextModelsReadLargestFirstWhateverTheListingOrder) {
+    vbme_test::ScratchDir tmp;
+    auto model = [](int images, int first_id) {
+        ColmapModel m;
+        ColmapCamera cam;
+        cam.size = Size(64, 48);
+        cam.params = {50, 50, 32, 24};
+        m.cameras[1] = cam;
+        for (int i = 0; i < images; ++i) {
+            ColmapImage im;
+            im.id = first_id + i;
+            im.R = Matx33d::eye();
+            im.t = Vec3d(first_id, i, 0);
+            im.name = format("frame_%05d.png", i);
+            m.images[im.id] = im;
+        }
+        return m;
+    };
+    // written in an order that is neither the size order nor the name order
+    model(2, 30).writeText(tmp / "sparse_txt/3");
+    model(5, 10).writeText(tmp / "sparse_txt/1");
+    model(2, 20).writeText(tmp / "sparse_txt/2");
+    model(5, 0).writeText(tmp / "sparse_txt/0");
+    model(3, 40).writeText(tmp / "sparse_txt/10");
+    std::ofstream(tmp / "sparse_txt/not_a_model.txt") << "x\n";
+    const std::vector<ColmapModel> ms = ColmapModel::readTextModels(tmp / "sparse_txt");
+    ASSERT_EQ(ms.size(), 5u);
+    std::vector<int> first_ids;
+    for (const auto& m : ms)
+        first_ids.push_back(m.images.begin()->first);
+    EXPECT_EQ(first_ids, (std::vector<int>{0, 10, 40, 20, 30}));
+    EXPECT_TRUE(ColmapModel::readTextModels(tmp / "missing").empty());
+}
+
 TEST(CalibColmap, MissingProgramIsAClearError) {
     vbme_test::ScratchDir tmp;
     fs::create_directories(tmp / "frames");

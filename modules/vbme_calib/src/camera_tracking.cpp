@@ -344,8 +344,7 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
     std::vector<ColmapModel> models;
     const fs::path done = work / "colmap_complete.txt";
     if (fs::exists(done, ec)) {
-        for (const auto& e : fs::directory_iterator(work / "sparse_txt", ec))
-            if (e.is_directory()) models.push_back(ColmapModel::readText(e.path().string()));
+        models = ColmapModel::readTextModels((work / "sparse_txt").string());
     }
     if (models.empty()) {
         std::printf("camera tracking: running COLMAP on %zu frames (log: %s)\n",

@@ -90,6 +90,21 @@ std::vector<std::pair<int, std::string>> dataLines(const std::string& path) {
 
 }  // namespace
 
+std::vector<ColmapModel> ColmapModel::readTextModels(const std::string& root) {
+    std::error_code ec;
+    std::vector<fs::path> dirs;
+    for (const auto& e : fs::directory_iterator(root, ec))
+        if (e.is_directory()) dirs.push_back(e.path());
+    std::sort(dirs.begin(), dirs.end());
+    std::vector<ColmapModel> models;
+    for (const auto& d : dirs)
+        models.push_back(readText(d.string()));
+    std::stable_sort(models.begin(), models.end(), [](const ColmapModel& a, const ColmapModel& b) {
+        return a.images.size() > b.images.size();
+    });
+    return models;
+}
+
 ColmapModel ColmapModel::readText(const std::string& dir) {
     ColmapModel m;
     const std::string cam_path = (fs::path(dir) / "cameras.txt").string();
@@ -299,7 +314,6 @@ std::vector<ColmapModel> runColmapSfM(const std::string& image_dir, const std::s
                 std::to_string(o.min_model_size), "--Mapper.abs_pose_min_num_inliers",
                 std::to_string(o.abs_pose_min_num_inliers)}),
           log);
-    std::vector<ColmapModel> models;
     for (const auto& e : fs::directory_iterator(sparse, ec)) {
         if (!e.is_directory()) continue;
         const fs::path out = text / e.path().filename();
@@ -308,14 +322,11 @@ std::vector<ColmapModel> runColmapSfM(const std::string& image_dir, const std::s
                 {"--input_path", e.path().string(), "--output_path", out.string(), "--output_type",
                  "TXT"},
                 log);
-        models.push_back(ColmapModel::readText(out.string()));
     }
+    std::vector<ColmapModel> models = ColmapModel::readTextModels(text.string());
     if (models.empty())
         CV_Error(Error::StsError, "COLMAP reconstructed nothing from '" + image_dir +
                                       "' (too little texture or motion?); its output is in " + log);
-    std::sort(models.begin(), models.end(), [](const ColmapModel& a, const ColmapModel& b) {
-        return a.images.size() > b.images.size();
-    });
     return models;
 }
 

@@ -255,9 +255,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
                 std::ifstream in(done.string());
                 std::string line;
                 if (std::getline(in, line) && line == key_list.str())
-                    for (const auto& e : fs::directory_iterator(work / "sparse_txt", ec))
-                        if (e.is_directory())
-                            models.push_back(ColmapModel::readText(e.path().string()));
+                    models = ColmapModel::readTextModels((work / "sparse_txt").string());
             }
             if (models.empty()) {
                 fs::remove(done, ec);

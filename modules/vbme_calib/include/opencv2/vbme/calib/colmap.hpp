@@ -62,6 +62,12 @@ struct CV_EXPORTS ColmapModel {
     /** @brief Reads cameras.txt, images.txt and points3D.txt from @p dir. Throws
     cv::Exception naming the file and line at fault. */
     static ColmapModel readText(const std::string& dir);
+    /** @brief Reads every model under @p root (one subdirectory each, as COLMAP's mapper and
+    model_converter leave them: `0/`, `1/`, ...), largest first (most registered images; ties
+    in the subdirectories' name order), so that a run and a later rerun that reads the same
+    files back pick the same model whatever order the file system lists them in. Empty when
+    @p root does not exist or holds no subdirectory. */
+    static std::vector<ColmapModel> readTextModels(const std::string& root);
     /** @brief Writes the three text files into @p dir (created), each atomically.
      */
     void writeText(const std::string& dir) const;
