@@ -3,6 +3,7 @@
 
 #include <iomanip>
 #include <ostream>
+#include <unordered_map>
 
 #include "opencv2/vbme/core/fileio.hpp"
 
@@ -58,6 +59,20 @@ void PipelineReport::setFigure(const std::string& name, double value) {
         *x = value;
     else
         figures.emplace_back(name, value);
+}
+
+void PipelineReport::setFigures(const std::vector<std::pair<std::string, double>>& values) {
+    std::unordered_map<std::string, size_t> at;
+    at.reserve(figures.size() + values.size());
+    for (size_t i = 0; i < figures.size(); ++i)
+        at.emplace(figures[i].first, i);  // the first of equal names, as find() would
+    for (const auto& kv : values) {
+        const auto [it, added] = at.emplace(kv.first, figures.size());
+        if (added)
+            figures.push_back(kv);
+        else
+            figures[it->second].second = kv.second;
+    }
 }
 
 double PipelineReport::figure(const std::string& name, double default_value) const {

@@ -174,9 +174,12 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
             for (int c = 0; c < 3; ++c)
                 report->setFigure(format("light%d_scale_%c", (int)i, "rgb"[c]),
                                   out.lights.scale[i][c]);
+        std::vector<std::pair<std::string, double>> gains;
+        gains.reserve(3 * out.frames);
         for (int i = 0; i < out.frames; ++i)
             for (int c = 0; c < 3; ++c)
-                report->setFigure(format("gain_%d_%c", i, "bgr"[c]), out.gains[i][c]);
+                gains.emplace_back(format("gain_%d_%c", i, "bgr"[c]), out.gains[i][c]);
+        report->setFigures(gains);
         report->setFigure("exposure_texels_min", rec.exposure_texels_min);
     }
     return out;

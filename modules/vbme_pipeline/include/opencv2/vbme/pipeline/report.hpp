@@ -52,6 +52,10 @@ struct CV_EXPORTS PipelineReport {
     double stageSeconds(const std::string& stage) const;
     /** @brief Sets figure @p name (appended at the end when new). */
     void setFigure(const std::string& name, double value);
+    /** @brief Sets every figure of @p values as setFigure() would, in one pass over the
+    figures already held (setFigure() looks each name up in turn: per-frame figures of a
+    long video would make that quadratic). */
+    void setFigures(const std::vector<std::pair<std::string, double>>& values);
     /** @brief Figure @p name, or @p default_value when absent. */
     double figure(const std::string& name, double default_value = 0) const;
 
