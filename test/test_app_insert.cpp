@@ -166,6 +166,28 @@ TEST(AppInsert, SmallRunWritesVideoAndRefusesOverwrite) {
     EXPECT_NE(r.output.find("--force"), std::string::npos) << r.output;
 }
 
+// A preparation (--prepare-only, as a render farm's first job) renders nothing, so it fixes no
+// sampling: the render runs choose --spp, and the first of them records it for the others.
+TEST(AppInsert, PrepareOnlyLeavesTheSamplingToTheRenderRuns) {
+    vbme_test::ScratchDir dir;
+    const Inputs in = makeInputs(dir, "prep", Size(64, 48), Size(64, 48), 2, 2);
+    const std::string out = dir / "out.mkv", opts = "--lights none --albedo retinex ";
+    auto r = run(cmd(in, out, opts + "--prepare-only"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_FALSE(fs::exists(dir / "out_work/frames/settings.yml"));
+    r = run(cmd(in, out, opts + "--spp 3 --frames 0:1"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("prepared scene reused"), std::string::npos) << r.output;
+    // another sampling for the same frames folder is refused, naming both
+    r = run(cmd(in, out, opts + "--spp 2 --frames 1:2"));
+    EXPECT_EQ(r.code, 1) << r.output;
+    EXPECT_NE(r.output.find("spp=3"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(dir / "out_work/frames/frame_00001.png"));
+    r = run(cmd(in, out, opts + "--spp 3 --frames 1:2"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_TRUE(fs::exists(out));
+}
+
 TEST(AppInsert, KeepsAudioAndTimestamps) {
     // An MP4 input with a tone: the output carries the same audio packets and the input's
     // frame times; its frames are those rendered into the work folder, up to the encoder.

@@ -95,7 +95,7 @@ void runInsert(InsertOptions& o) {
     if (o.p.prepare_only) {
         std::printf(
             "prepared %s for %d frames (%s); render them with --frames A:B and the same --work, "
-            "--scene, --video, --spp\n",
+            "--scene, --video (and one --spp for all the render runs)\n",
             r.work.c_str(), r.frames_total, reused ? "reused" : "made now");
         return;
     }
@@ -170,8 +170,9 @@ void setupInsert(CLI::App& app) {
                    "A:B: render only frames A … B-1 (from 0; 'A:' to the end), e.g. one "
                    "machine's share of a render farm");
     app.add_flag("--prepare-only", o->p.prepare_only,
-                 "Only prepare the work folder (camera path, textures, albedo, lights, frame "
-                 "settings), render nothing: a render farm prepares once, then its tasks run "
+                 "Only prepare the work folder (camera path, textures, albedo, lights), render "
+                 "nothing (the first run that renders records its sampling for the others): a "
+                 "render farm prepares once, then its tasks run "
                  "--frames A:B (see vbme farm slurm)");
     app.add_option("--work", o->p.work, "Work folder (default: <out without extension>_work)");
     app.add_flag("--keep-exr", o->p.keep_exr,

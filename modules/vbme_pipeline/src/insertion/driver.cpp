@@ -192,11 +192,13 @@ PipelineReport runInsertionLimited(const InsertionParams& p, const PipelineProgr
     const int first = p.first, end = p.end < 0 ? n : p.end;
     const int spp = p.adaptive_min_spp > 0 ? prep.render.spp / 4 : prep.render.spp;
     rep.setFigure("spp", spp);
-    checkFrameSettings(prep, spp, p.force);
+    // a preparation renders no frame: the render runs that follow choose the sampling (the
+    // first one records it for the others)
     if (p.prepare_only) {
         finish();
         return rep;
     }
+    checkFrameSettings(prep, spp, p.force);
     work_lock.release();
 
     renderFrames(p, prep, first, end, spp, progress, rep);
