@@ -229,9 +229,9 @@ void setupInsert(CLI::App& app) {
                    "room's edges; off: no motion blur")
         ->capture_default_str();
     app.add_option("--adaptive-min-spp", o->p.adaptive_min_spp,
-                   "Adaptive sampling: samples every pixel takes first; a pixel where no path "
-                   "met the object stops there, others go on until --adaptive-error is met, at "
-                   "most 4 x --spp (0: every pixel takes --spp)")
+                   "Adaptive sampling (on by default): samples every pixel takes first; a "
+                   "pixel where no path met the object stops there, others go on until "
+                   "--adaptive-error is met, at most 4 x --spp (0: off, every pixel takes --spp)")
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
     app.add_option("--adaptive-error", o->p.adaptive_error,

@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/vbme/core/utility.hpp>
 #include <opencv2/vbme/datasets/room_sequence.hpp>
+#include <opencv2/vbme/render/differential.hpp>
 #include <opencv2/vbme/render/integrator.hpp>
 #include <opencv2/vbme/render/placement.hpp>
 #include <opencv2/vbme/render/scene.hpp>
@@ -384,6 +385,58 @@ void SyntheticInsertionSequence::renderFrame(int i, Mat& input, Mat& truth, Mat&
     Mat sil = with.mask > 0.f, shadow = lum > thr;
     dilate(sil, sil, getStructuringElement(MORPH_ELLIPSE, Size(13, 13)));
     region = sil | shadow;
+}
+
+void SyntheticInsertionSequence::renderDifferentialTruth(int i, InputArray input_in, int spp,
+                                                         int seed, Mat& truth, Mat* half_difference,
+                                                         Rect roi) const {
+    CV_Assert(i >= 0 && i < (int)impl_->cameras_.size());
+    CV_Assert(spp >= 2 && seed >= 0);
+    const Mat input = input_in.getMat();
+    CV_Assert(input.type() == CV_8UC3 && input.size() == impl_->params_.size);
+    const Rect frame(Point(0, 0), input.size());
+    roi = roi.area() > 0 ? (roi & frame) : frame;
+    CV_Assert(roi.area() > 0);
+    if (!impl_->render_scene_) impl_->render_scene_ = RenderScene::create(impl_->scene_);
+    // the frame's camera, cropped to roi: pixel (x, y) of the crop is pixel roi.tl() + (x, y)
+    Camera cam = impl_->cameras_[i];
+    cam.K(0, 2) -= roi.x;
+    cam.K(1, 2) -= roi.y;
+    cam.image_size = roi.size();
+    const Mat bg = input(roi);
+    CompositeParams cp;
+    cp.response = Response::SRGB;
+    cp.shadows = CompositeParams::SHADOWS_ADDITIVE;
+    DifferentialImages half[2];
+    for (int h = 0; h < 2; ++h) {
+        DifferentialRenderer::Params dp;
+        dp.render.spp = (spp + 1) / 2;
+        dp.render.max_depth = impl_->params_.max_depth;
+        dp.render.seed = (uint64)seed + (uint64)h;
+        dp.render.threads = impl_->params_.threads;
+        DifferentialRenderer::create(dp)->render(*impl_->render_scene_, cam, half[h]);
+    }
+    auto display = [&](const DifferentialImages& im) {
+        Mat lin, enc;
+        compositeDifferential(bg, im, lin, cp);
+        encode(lin, enc, cp.response, CV_32F);
+        min(max(enc, 0.0), 1.0, enc);
+        return Mat(enc * 255.0);
+    };
+    DifferentialImages mean_layers;
+    mean_layers.obj = (half[0].obj + half[1].obj) * 0.5;
+    mean_layers.noobj = (half[0].noobj + half[1].noobj) * 0.5;
+    mean_layers.diff = (half[0].diff + half[1].diff) * 0.5;
+    mean_layers.mask = (half[0].mask + half[1].mask) * 0.5;
+    truth = input.clone();
+    Mat truth_roi = truth(roi);  // a view: converted in place
+    display(mean_layers).convertTo(truth_roi, CV_8U);
+    if (half_difference) {
+        half_difference->create(input.size(), CV_32FC3);
+        half_difference->setTo(Scalar::all(0));
+        Mat half_roi = (*half_difference)(roi);
+        Mat((display(half[0]) - display(half[1])) * 0.5).copyTo(half_roi);
+    }
 }
 
 double SyntheticInsertionSequence::writeVideos(bool force) const {

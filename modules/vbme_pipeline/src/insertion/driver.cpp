@@ -64,7 +64,7 @@ void renderFrames(const InsertionParams& p, PreparedInsertion& prep, int first, 
         if (!fs::exists(frameFile(work, i))) ++todo;
     VideoReader reader(p.video);
     Mat f, enc, linear;
-    double render_seconds = 0;
+    double render_seconds = 0, sample_sum = 0;
     int done = 0;
     for (int i = 0; i < end && reader.read(f); ++i) {
         if (i < first) continue;
@@ -87,8 +87,9 @@ void renderFrames(const InsertionParams& p, PreparedInsertion& prep, int first, 
         }
         ScopedTimer timer(render_seconds);  // render, composite, write
         DifferentialImages im;
-        renderInsertionFrame(prep, i, f, enc, p.keep_exr ? &im : nullptr,
-                             p.keep_exr ? &linear : nullptr);
+        renderInsertionFrame(prep, i, f, enc, &im, p.keep_exr ? &linear : nullptr);
+        // the render's cost: camera paths per pixel (adaptive sampling varies it per pixel)
+        sample_sum += im.samples.empty() ? (double)prep.render.spp : mean(im.samples)[0];
         if (p.keep_exr) {
             const Renderer::Params& rp = prep.render;
             const std::map<std::string, std::string> attr = {
@@ -122,6 +123,8 @@ void renderFrames(const InsertionParams& p, PreparedInsertion& prep, int first, 
     rep.addSeconds("render", render_seconds);
     rep.setFigure("seconds_per_frame",
                   rep.frames_processed ? render_seconds / rep.frames_processed : 0);
+    rep.setFigure("samples_per_pixel",
+                  rep.frames_processed ? sample_sum / rep.frames_processed : 0);
 }
 
 // Assembles the output video from the frames folder. The input's timestamps (from the

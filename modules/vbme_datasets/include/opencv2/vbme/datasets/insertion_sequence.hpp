@@ -148,6 +148,29 @@ public:
     the render noise of the truth. */
     void renderFrame(int i, Mat& input, Mat& truth, Mat& region, int seed = -1) const;
 
+    /** @brief The differential truth of frame @p i: @p input (the frame of inputVideoPath(),
+    8-bit BGR) with the change the object makes, rendered from the true scene with @p spp
+    samples per pixel and render seed @p seed and composited additively (compositeDifferential(),
+    SHADOWS_ADDITIVE): the object's pixels from the render, the others
+    `input + (I_obj − I_noObj)`.
+
+    It is what an insertion given the true scene would make, with samples of its own: unlike
+    truthVideoPath(), whose frames share every sample with the input (and so with an insertion
+    that renders the scene at the input's seed and spp), it does not favour one sampling scheme
+    of the insertion over another. The samples are drawn as two independent halves (seeds
+    @p seed and @p seed + 1, ⌈spp/2⌉ each) whose layers are averaged; @p half_difference
+    (optional, CV_32FC3, 8-bit display units) receives half the difference of the two halves'
+    composites, whose mean square estimates the mean square of @p truth's own render noise.
+    @p truth is 8-bit BGR (sRGB-encoded, rounded).
+
+    @p roi (optional, clipped to the frame) limits the render to a rectangle, e.g. the bounding
+    box of regionPath(i) with a margin of a few pixels (the render's camera is the frame's,
+    its principal point moved): outside it @p truth is @p input and @p half_difference 0.
+    High sample counts stay affordable that way, as the object changes a small part of the
+    frame. */
+    void renderDifferentialTruth(int i, InputArray input, int spp, int seed, Mat& truth,
+                                 Mat* half_difference = nullptr, Rect roi = Rect()) const;
+
     /** @brief Renders every frame into inputVideoPath(), truthVideoPath() and the region
     masks (skipped when @p force is false and both videos already hold Params::frames frames of
     Params::size, with their masks).
