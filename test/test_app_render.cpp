@@ -207,6 +207,21 @@ TEST(AppRender, DifferentialWritesLayersAndComposite) {
         EXPECT_EQ(ch.count(n), 1u) << n;
     EXPECT_EQ(attr["vbme.seed"], "5");
     EXPECT_GT(countNonZero(ch.at("mask")), 0);
+    // adaptive sampling by default (as vbme insert), recorded with its mean cost; 0 turns it off
+    EXPECT_EQ(attr["vbme.sampling"].rfind("correlated, adaptive 2..", 0), 0u)
+        << attr["vbme.sampling"];
+    EXPECT_GT(std::stod(attr["vbme.samplesPerPixel"]), 0.0);
+    {
+        auto r0 = run(exe() + " --scene " + scene + " --out " + dir / "u.exr --differential " +
+                      "--adaptive-min-spp 0 --background " + dir / "bg.png");
+        ASSERT_EQ(r0.code, 0) << r0.output;
+        std::map<std::string, std::string> a0;
+        readExrChannels(dir / "u.exr", &a0);
+        EXPECT_EQ(a0["vbme.sampling"], "correlated");
+    }
+    EXPECT_EQ(
+        run(exe() + " --scene " + scene + " --out " + dir / "v.exr --adaptive-min-spp 4").code,
+        2);  // needs --differential
     r = run(std::string(VBME_EXE) + " composite -q --background " + dir / "bg.png --layers " +
             dir / "d.exr --out " + dir / "c2.png");
     ASSERT_EQ(r.code, 0) << r.output;

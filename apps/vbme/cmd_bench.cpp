@@ -42,14 +42,14 @@ namespace {
 struct BenchOptions {
     std::string what = "track";
     int width = 640, height = 480, frames = 300, threads = 1, spp = 32;
-    int ref_spp = 4096;          // insert: samples of the cached reference (0: no reference)
-    int repeat = 3;              // render-peer, insert: interleaved rounds (the fastest counts)
-    int max_depth = 4;           // render-peer: path length of both renderers
-    int min_spp = 4;             // insert: adaptive sampling's minimum (its variant)
-    int adaptive_max_spp = 128;  // insert: adaptive sampling's maximum (its variant)
-    double error = 0.5;          // insert: adaptive sampling's target (8-bit display values)
-    double texture_cone = 0.1;   // insert: texture filtering variants: cone spread (radians)
-    double roulette = 0.25;      // insert: adaptive variant: untouched pixels going on
+    int ref_spp = 4096;         // insert: samples of the cached reference (0: no reference)
+    int repeat = 3;             // render-peer, insert: interleaved rounds (the fastest counts)
+    int max_depth = 4;          // render-peer: path length of both renderers
+    int min_spp = 2;            // insert: adaptive sampling's minimum (vbme insert's default)
+    int adaptive_max_spp = 0;   // insert: adaptive sampling's maximum (0: 4 × --spp, as insert)
+    double error = 0.5;         // insert: adaptive sampling's target (8-bit display values)
+    double texture_cone = 0.1;  // insert: texture filtering variants: cone spread (radians)
+    double roulette = 0;        // insert: adaptive variant: untouched pixels going on
     std::string cache;  // insert: where the reference is cached (default: ./vbme-bench-cache)
     std::string clip, methods = "keyframes,full";  // track-camera
 };
@@ -739,12 +739,12 @@ void benchInsert(const BenchOptions& o) {
         for (int filtered = 0; filtered < 2; ++filtered) {
             Variant v{"", base};
             if (adaptive) {
-                v.p.spp = o.adaptive_max_spp;
+                v.p.spp = o.adaptive_max_spp > 0 ? o.adaptive_max_spp : 4 * o.spp;
                 v.p.adaptive_min_spp = o.min_spp;
                 v.p.adaptive_error = (float)o.error;
                 v.p.adaptive_roulette = (float)o.roulette;
                 v.name = format("adaptive %d..%d spp, error %.2g, roulette %.2g", o.min_spp,
-                                o.adaptive_max_spp, o.error, o.roulette);
+                                v.p.spp, o.error, o.roulette);
             } else {
                 v.p.spp = o.spp;
                 v.name = format("uniform %d spp", o.spp);
@@ -830,12 +830,14 @@ void setupBench(CLI::App& app) {
     app.add_option("--max-depth", o->max_depth, "render-peer: path length of both renderers")
         ->check(CLI::Range(1, 64))
         ->capture_default_str();
-    app.add_option("--min-spp", o->min_spp, "insert: minimum samples of the adaptive variant")
+    app.add_option("--min-spp", o->min_spp,
+                   "insert: minimum samples of the adaptive variant (default: vbme insert's)")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
     app.add_option("--max-spp", o->adaptive_max_spp,
-                   "insert: maximum samples of the adaptive variant")
-        ->check(CLI::Range(1, 100000))
+                   "insert: maximum samples of the adaptive variant (0: 4 x --spp, as vbme "
+                   "insert)")
+        ->check(CLI::Range(0, 100000))
         ->capture_default_str();
     app.add_option("--error", o->error,
                    "insert: target of the adaptive variant (95 % half-width, 8-bit display)")

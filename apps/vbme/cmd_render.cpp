@@ -1,5 +1,6 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // vbme render: path trace a scene file to OpenEXR (and optionally a PNG/JPEG).
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <thread>
@@ -23,6 +24,10 @@ struct RenderOptions {
     bool differential = false, independent = false;
     std::string background, composite, mask = "projected", frame_seeds = "fixed", shadows = "ratio";
     float alpha = 1.f;
+    // adaptive sampling of --differential (vbme insert's defaults: --spp is the budget, a pixel
+    // takes adaptive_min_spp … 4 × spp samples)
+    int adaptive_min_spp = 2;
+    float adaptive_error = 0.5f;
     CommonOptions common;
 };
 
@@ -50,6 +55,12 @@ void runDifferential(const RenderOptions& o, const cv::vbme::Scene& scene,
     DifferentialRenderer::Params dp;
     dp.render = p;
     dp.independent = o.independent;
+    // adaptive sampling (one pass only), as vbme insert: --spp stays the budget, ≤ 4 × spp a pixel
+    const bool adaptive = o.adaptive_min_spp > 0 && !o.independent;
+    dp.render.adaptive_min_spp = adaptive ? std::min(o.adaptive_min_spp, p.spp) : 0;
+    dp.render.adaptive_error = o.adaptive_error;
+    dp.render.adaptive_roulette = 0;
+    if (adaptive) dp.render.spp = 4 * p.spp;
     dp.coverage = parseCoverage(o.mask);
     cv::Ptr<RenderScene> rs = RenderScene::create(scene);
     DifferentialImages im;
@@ -75,7 +86,13 @@ void runDifferential(const RenderOptions& o, const cv::vbme::Scene& scene,
         {"vbme.alpha", cv::format("%g", o.alpha)},
         {"vbme.shadows", o.shadows},
         {"vbme.response", toString(camera.response)},
-        {"vbme.sampling", o.independent ? "independent" : "correlated"}};
+        {"vbme.sampling",
+         o.independent ? std::string("independent")
+         : adaptive    ? cv::format("correlated, adaptive %d..%d spp, error %g, roulette 0",
+                                    dp.render.adaptive_min_spp, dp.render.spp, o.adaptive_error)
+                       : std::string("correlated")},
+        {"vbme.samplesPerPixel",
+         cv::format("%.3f", im.samples.empty() ? (double)p.spp : cv::mean(im.samples)[0])}};
     writeDifferentialExr(o.out, im, linear, attr);
     if (!o.composite.empty()) {
         cv::Mat enc;
@@ -91,9 +108,10 @@ void runDifferential(const RenderOptions& o, const cv::vbme::Scene& scene,
         imwriteAtomic(o.png, enc);
     }
     std::printf(
-        "rendered %dx%d with and without the objects in %.2f s, %d samples/pixel "
+        "rendered %dx%d with and without the objects in %.2f s, %.2f samples/pixel "
         "(%s samples), %.3g paths/s\n",
-        camera.image_size.width, camera.image_size.height, st.seconds, p.spp,
+        camera.image_size.width, camera.image_size.height, st.seconds,
+        im.samples.empty() ? (double)p.spp : cv::mean(im.samples)[0],
         o.independent ? "independent" : "shared", st.seconds > 0 ? st.paths / st.seconds : 0.0);
 }
 
@@ -242,8 +260,21 @@ void setupRender(CLI::App& app) {
                               "Coverage mask M: projected (triangles, 8x8 per pixel) or rays "
                               "(the renderer's camera rays)")
                    ->check(CLI::IsMember({"projected", "rays"}));
+    auto* amin = app.add_option("--adaptive-min-spp", o->adaptive_min_spp,
+                                "Adaptive sampling (as vbme insert, on by default): samples "
+                                "every pixel takes first; a pixel where no path met an object "
+                                "stops there, others go on until --adaptive-error is met, at "
+                                "most 4 x --spp (0: off, every pixel takes --spp; off with "
+                                "--independent)")
+                     ->check(CLI::NonNegativeNumber)
+                     ->capture_default_str();
+    auto* aerr = app.add_option("--adaptive-error", o->adaptive_error,
+                                "Adaptive sampling's target: 95 % half-width of a composite "
+                                "pixel in 8-bit display values")
+                     ->check(CLI::Range(1e-3, 255.0))
+                     ->capture_default_str();
     diff->needs(bg);
-    for (auto* opt : {bg, comp, ind, al, sh, mk})
+    for (auto* opt : {bg, comp, ind, al, sh, mk, amin, aerr})
         opt->needs(diff);
     addCommonOptions(app, o->common);
     app.callback([o] {
