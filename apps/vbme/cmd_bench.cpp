@@ -50,6 +50,7 @@ struct BenchOptions {
     double error = 0.5;         // insert: adaptive sampling's target (8-bit display values)
     double texture_cone = 0.1;  // insert: texture filtering variants: cone spread (radians)
     double roulette = 0;        // insert: adaptive variant: untouched pixels going on
+    int denoise = 0;            // insert: experiment: also the last variant denoised (radius)
     std::string cache;  // insert: where the reference is cached (default: ./vbme-bench-cache)
     std::string clip, methods = "keyframes,full";  // track-camera
 };
@@ -629,6 +630,41 @@ void benchTrackCamera(const BenchOptions& o) {
 // The insertion pipeline on a rendered hand-held room sequence with its true cameras (so COLMAP
 // is not timed): every stage of runInsertion, and seconds per frame against one plain render
 // of the same frame with the object (the peer measured in the same run).
+// Experiment (issue 16, "denoising the difference layer"): a joint bilateral filter of the
+// difference layer outside the objects' coverage, guided by the footage (display values) and
+// restricted to neighbours outside the coverage; pixels whose window holds no difference keep
+// exactly 0. Window (2r+1)², spatial σ = r/2 px, range σ = 0.1 of the display range.
+void denoiseDiffLayer(cv::vbme::DifferentialImages& im, const cv::Mat& bg8, int r) {
+    using namespace cv;
+    Mat guide;
+    bg8.convertTo(guide, CV_32FC3, 1 / 255.0);
+    const Mat src = im.diff.clone();
+    const float ss = 2.f / float(r * r), sr = 1 / (2 * 0.1f * 0.1f);
+    for (int y = 0; y < src.rows; ++y)
+        for (int x = 0; x < src.cols; ++x) {
+            if (im.mask.at<float>(y, x) > 0) continue;
+            const Vec3f g0 = guide.at<Vec3f>(y, x);
+            Vec3f acc(0, 0, 0);
+            float wsum = 0;
+            bool any = false;
+            for (int dy = -r; dy <= r; ++dy) {
+                const int yy = y + dy;
+                if (yy < 0 || yy >= src.rows) continue;
+                for (int dx = -r; dx <= r; ++dx) {
+                    const int xx = x + dx;
+                    if (xx < 0 || xx >= src.cols || im.mask.at<float>(yy, xx) > 0) continue;
+                    const Vec3f d = src.at<Vec3f>(yy, xx);
+                    if (d != Vec3f(0, 0, 0)) any = true;
+                    const Vec3f dg = guide.at<Vec3f>(yy, xx) - g0;
+                    const float w = std::exp(-float(dx * dx + dy * dy) * ss - dg.dot(dg) * sr);
+                    acc += w * d;
+                    wsum += w;
+                }
+            }
+            if (any && wsum > 0) im.diff.at<Vec3f>(y, x) = acc * (1 / wsum);
+        }
+}
+
 void benchInsert(const BenchOptions& o) {
     using namespace cv;
     using namespace cv::vbme;
@@ -733,6 +769,7 @@ void benchInsert(const BenchOptions& o) {
         std::string name;
         Renderer::Params p;
         double best = 1e30, cpu = 1e30, rmse = -1, spp = 0, untouched = 0;
+        bool denoise = false;  // experiment: the difference layer filtered (denoiseDiffLayer)
     };
     std::vector<Variant> vs;
     for (int adaptive = 0; adaptive < 2; ++adaptive)
@@ -755,6 +792,12 @@ void benchInsert(const BenchOptions& o) {
             }
             vs.push_back(v);
         }
+    if (o.denoise) {  // the last (adaptive + filtered) setting again, its difference denoised
+        Variant v = vs.back();
+        v.name += format(", denoised (r %d)", o.denoise);
+        v.denoise = true;
+        vs.push_back(v);
+    }
     for (int round = 0; round < o.repeat; ++round)
         for (auto& v : vs) {
             DifferentialRenderer::Params dp;
@@ -763,6 +806,7 @@ void benchInsert(const BenchOptions& o) {
             const double c0 = cpuSeconds(RUSAGE_SELF);
             const auto t0 = std::chrono::steady_clock::now();
             const RenderStats st = DifferentialRenderer::create(dp)->render(*rs, cam, im);
+            if (v.denoise) denoiseDiffLayer(im, bg, o.denoise);
             const Mat disp = display(im);
             const double wall =
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -850,6 +894,11 @@ void setupBench(CLI::App& app) {
     app.add_option("--roulette", o->roulette,
                    "insert: adaptive variant's probability that an untouched pixel goes on")
         ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    app.add_option("--denoise", o->denoise,
+                   "insert: experiment: also the adaptive + filtered variant with its difference "
+                   "layer denoised by a joint bilateral filter of this radius (0: not)")
+        ->check(CLI::Range(0, 16))
         ->capture_default_str();
     app.add_option("--cache", o->cache,
                    "insert: folder of the cached reference (default ./vbme-bench-cache)");
