@@ -20,7 +20,12 @@ enum ConsensusAlignment {
     corners around the hole tracked by pyramidal Lucas-Kanade @cite Bouguet2001 with a
     forward-backward check, so that it maps the background plane next to the object (the
     floor it rolls on) even when the view as a whole has parallax; frames without a hole, or
-    too few corners, use ORB features over the whole frame. */
+    too few corners, use ORB features over the whole frame. Each link is then refined by
+    direct alignment (ECC @cite Evangelidis2008) on the same ring, and each neighbour's
+    chained map is refined again around the hole of the frame being filled (every second
+    neighbour; the others are one refined link from one), since the links far along the
+    chain were fitted where the object was then: corner tracks fix the plane to about a
+    pixel, which fine repeated texture turns into seams. */
     CONSENSUS_ALIGN_HOMOGRAPHY = 1,
     /** The homography, then a dense residual flow (DIS @cite Kroeger2016) around the hole,
     completed into the holes by normalised convolution @cite Knutsson1993; used for a
