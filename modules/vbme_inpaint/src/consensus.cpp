@@ -238,7 +238,8 @@ public:
             if (!window_.empty() && window_.back().index == f.index - 1) {
                 f.toPrev = f.area > 0 ? estimateLocal(f, window_.back()) : Mat();
                 if (f.toPrev.empty()) f.toPrev = estimate(f, window_.back());
-                if (f.area > 0)
+                // A link the tracks call the identity (a camera on a stand) stays one.
+                if (f.area > 0 && !nearIdentity(f.toPrev, size_, p_.identity_tolerance))
                     f.toPrev = refineLocal(f, window_.back(), f.toPrev, p_.local_reach, 2, 30, 15);
             }
         }
