@@ -1,7 +1,9 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // Video decoding and encoding, frames per second, at 640x480 and 1920x1080: vbme's VideoReader
 // / VideoSink (FFmpeg's libraries) against OpenCV's VideoCapture / VideoWriter (the path they
-// replace) in the same run. items_per_second is frames per second. The fast Y'CbCr
+// replace) in the same run. items_per_second is frames per second (wall clock), cpu_ms the
+// process's CPU milliseconds per frame (all threads; what a loaded machine changes little),
+// load the machine's load average at the end. The fast Y'CbCr
 // conversion is measured by a second run with VBME_YUV=fast in the environment.
 //   build/perf/vbme_perf_core_video --benchmark_min_time=2
 #include <benchmark/benchmark.h>
@@ -14,6 +16,7 @@
 #include <opencv2/videoio.hpp>
 
 #include <stdlib.h>
+#include <time.h>
 #include <unistd.h>
 
 using namespace cv;
@@ -80,16 +83,33 @@ const std::string& clip(Size size, bool ffv1 = false) {
     return f;
 }
 
+// CPU seconds of the whole process (every thread: the codecs' own threads included).
+double processCpu() {
+    timespec ts{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+// Counters beside items_per_second (wall-clock frames/s): cpu_ms, the process's CPU
+// milliseconds per frame (all threads), and load, the load average of the machine.
+void setCpuCounters(benchmark::State& st, double cpu_s, int64_t frames) {
+    st.counters["cpu_ms"] = frames > 0 ? 1000 * cpu_s / frames : 0.0;
+    double l[1] = {0};
+    st.counters["load"] = getloadavg(l, 1) == 1 ? l[0] : -1.0;
+}
+
 void BM_Decode_vbme(benchmark::State& st) {
     const Size size = sizeOf(st.range(0));
     const std::string& f = clip(size, st.range(1) == 1);
     Mat m;
     int64_t n = 0;
+    const double cpu0 = processCpu();
     for (auto _ : st) {
         VideoReader r(f);
         while (r.read(m))
             ++n;
     }
+    setCpuCounters(st, processCpu() - cpu0, n);
     st.SetItemsProcessed(n);
 }
 
@@ -99,26 +119,34 @@ void BM_Decode_OpenCV(benchmark::State& st) {
     const std::string& f = clip(size, st.range(1) == 1);
     Mat m;
     int64_t n = 0;
+    const double cpu0 = processCpu();
     for (auto _ : st) {
         VideoCapture c(f, CAP_FFMPEG);
         while (c.read(m))
             ++n;
     }
+    setCpuCounters(st, processCpu() - cpu0, n);
     st.SetItemsProcessed(n);
 }
 
+// vbme's default encoding; with a second argument 1, x264's preset medium (the default before
+// superfast) at the same CRF
 void BM_Encode_vbme(benchmark::State& st) {
     const Size size = sizeOf(st.range(0));
     const auto& fr = frames(size);
     auto& dir = scratch();
+    VideoSinkOptions opt;
+    if (st.range(1) == 1) opt.preset = "medium";
     int64_t n = 0;
+    const double cpu0 = processCpu();
     for (auto _ : st) {
-        VideoSink s(dir / "out.mp4", 30, size);
+        VideoSink s(dir / "out.mp4", 30, size, opt);
         for (const Mat& m : fr)
             s.write(m);
         s.close();
         n += (int64_t)fr.size();
     }
+    setCpuCounters(st, processCpu() - cpu0, n);
     st.SetItemsProcessed(n);
     st.counters["kbit_per_s"] =
         (double)std::filesystem::file_size(dir / "out.mp4") * 8 / (kFrames / 30.0) / 1000;
@@ -129,6 +157,7 @@ void BM_Encode_OpenCV(benchmark::State& st) {
     const auto& fr = frames(size);
     auto& dir = scratch();
     int64_t n = 0;
+    const double cpu0 = processCpu();
     for (auto _ : st) {
         VideoWriter w(dir / "out.mp4", CAP_FFMPEG, VideoWriter::fourcc('a', 'v', 'c', '1'), 30,
                       size);
@@ -137,6 +166,7 @@ void BM_Encode_OpenCV(benchmark::State& st) {
         w.release();
         n += (int64_t)fr.size();
     }
+    setCpuCounters(st, processCpu() - cpu0, n);
     st.SetItemsProcessed(n);
     st.counters["kbit_per_s"] =
         (double)std::filesystem::file_size(dir / "out.mp4") * 8 / (kFrames / 30.0) / 1000;
@@ -157,5 +187,12 @@ BENCHMARK(BM_Decode_OpenCV)
     ->Args({640, 1})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
-BENCHMARK(BM_Encode_vbme)->Arg(640)->Arg(1920)->Unit(benchmark::kMillisecond)->UseRealTime();
+// second argument: 0 vbme's default (x264 superfast), 1 x264 medium
+BENCHMARK(BM_Encode_vbme)
+    ->Args({640, 0})
+    ->Args({640, 1})
+    ->Args({1920, 0})
+    ->Args({1920, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_Encode_OpenCV)->Arg(640)->Arg(1920)->Unit(benchmark::kMillisecond)->UseRealTime();

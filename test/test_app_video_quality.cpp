@@ -1,9 +1,11 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // Issue 20's "every command's video output scores within 0.5 dB of the frames it rendered":
-// `vbme insert`, `vbme material-edit` and `vbme inpaint --video` are run on clips with a
-// truth (Blender's insertion clip, the path-traced chrome ball, Blender's clean plate); the
-// frames the command computed (insert's <work>/frames, the others' image-pattern output) and
-// its default video output are both scored against the truth in the object's neighbourhood.
+// `vbme insert`, `vbme material-edit`, `vbme inpaint --video`, `vbme track --overlay` and
+// `vbme track-camera --overlay` are run on clips with a truth (Blender's insertion clip, the
+// path-traced chrome ball, Blender's clean plate, noise-free drawn and rendered clips with the
+// overlays' marks); the frames the command computed (insert's <work>/frames, the others'
+// image-pattern output) and its default video output are both scored against the truth in the
+// object's neighbourhood (the whole frame for the overlays).
 // OpenCV's VideoWriter (the writer before FFmpeg's libraries) encodes the same frames beside
 // it, so the comparison shows what a lossy default costs.
 #include <gtest/gtest.h>
@@ -18,7 +20,14 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/vbme/core.hpp>
 #include <opencv2/vbme/core/metrics.hpp>
+#include <opencv2/vbme/datasets/ball_clip.hpp>
 #include <opencv2/vbme/datasets/rendered_ball_clip.hpp>
+#if __has_include(<opencv2/vbme/datasets/room_sequence.hpp>)
+#include <opencv2/vbme/datasets/room_sequence.hpp>
+#define VBME_HAVE_ROOM_SEQUENCE 1
+#else
+#define VBME_HAVE_ROOM_SEQUENCE 0
+#endif
 #include <opencv2/vbme/track/disk.hpp>
 #include <opencv2/videoio.hpp>
 
@@ -219,3 +228,163 @@ TEST(AppVideoQuality, InpaintVideoKeepsWhatWasRendered) {
     expectVideoKeepsFrames("inpaint --video", decodeAll(dir / "frames/%05d.png"),
                            dir / "filled.mp4", clean, holes, dir);
 }
+
+namespace {
+
+// The truth of an overlay: the clean frames with the marks the command drew on the noisy input
+// (the pixels where its drawn frame differs from the input take the drawn value). The frames
+// drawn then score the input's noise against it, and the video that noise plus its coding.
+std::vector<Mat> truthWithMarks(const std::vector<Mat>& clean, const std::vector<Mat>& input,
+                                const std::vector<Mat>& drawn, double* marked_fraction,
+                                std::vector<Mat>* marks_out = nullptr) {
+    std::vector<Mat> truth;
+    double marked = 0, px = 0;
+    for (size_t i = 0; i < drawn.size(); ++i) {
+        Mat d;
+        absdiff(drawn[i], input[i], d);
+        std::vector<Mat> ch;
+        split(d, ch);
+        const Mat marks = max(max(ch[0], ch[1]), ch[2]) > 0;
+        Mat t = clean[i].clone();
+        drawn[i].copyTo(t, marks);
+        truth.push_back(t);
+        marked += countNonZero(marks);
+        px += (double)marks.total();
+        if (marks_out) marks_out->push_back(marks);
+    }
+    *marked_fraction = marked / std::max(px, 1.0);
+    return truth;
+}
+
+// Sensor-like noise (sigma 3 levels, fixed seed) on a clean frame.
+Mat withNoise(const Mat& clean, uint64 seed) {
+    RNG rng(seed);
+    Mat noise(clean.size(), CV_32FC3), f;
+    rng.fill(noise, RNG::NORMAL, Scalar::all(0), Scalar::all(3));
+    clean.convertTo(f, CV_32FC3);
+    f += noise;
+    Mat out;
+    f.convertTo(out, CV_8UC3);
+    return out;
+}
+
+}  // namespace
+
+// track --overlay on a drawn ball clip with sensor noise (SyntheticBallClip, 320x240, 8 frames,
+// sigma 3); truth: the same clip without noise, with the command's marks. The frames drawn are
+// the command's image-pattern overlay (same input, same options, deterministic); the whole
+// frame is scored (the marks included: thin coloured lines are what 4:2:0 chroma loses first).
+TEST(AppVideoQuality, TrackOverlayVideoKeepsWhatWasDrawn) {
+    vbme_test::ScratchDir dir;
+    SyntheticBallClip::Params p;
+    p.size = Size(320, 240);
+    p.frames = 60;  // the motion of a 60-frame clip; the first n frames are used
+    const int n = 8;
+    SyntheticBallClip::Params pc = p;
+    pc.noise_sigma = 0;
+    const SyntheticBallClip noisy(p), clean(pc);
+    std::vector<Mat> input, truth_clean, regions;
+    {
+        VideoSink s(dir / "frames/f%05d.png", 25, p.size);
+        for (int i = 0; i < n; ++i) {
+            input.push_back(noisy.frame(i));
+            truth_clean.push_back(clean.frame(i));
+            s.write(input.back());
+            regions.push_back(Mat(p.size, CV_8UC1, Scalar(255)));
+        }
+        s.close();
+    }
+    // the noisy clip is the clean one plus its noise (the same texture and ball)
+    const double p_noise = pooledPsnr(input, truth_clean, regions);
+    ASSERT_GT(p_noise, 35.0);
+    ASSERT_LT(p_noise, 48.0);
+    Mat mask;
+    diskMask(p.size, noisy.truth(0), mask);
+    imwrite(dir / "mask.png", mask);
+    const std::string base = kExe + " track --quiet --video " + (dir / "frames") + " --mask " +
+                             (dir / "mask.png") + " --overlay ";
+    auto r = vbme_test::run(base + (dir / "drawn/%05d.png") + " --out " + (dir / "out1"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    r = vbme_test::run(base + (dir / "overlay.mp4") + " --out " + (dir / "out2"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    const std::vector<Mat> drawn = decodeAll(dir / "drawn/%05d.png");
+    ASSERT_EQ((int)drawn.size(), n);
+    double marked = 0;
+    std::vector<Mat> marks, unmarked;
+    const std::vector<Mat> truth = truthWithMarks(truth_clean, input, drawn, &marked, &marks);
+    for (const Mat& m : marks)
+        unmarked.push_back(m == 0);
+    {
+        const std::vector<Mat> video = decodeAll(dir / "overlay.mp4");
+        std::printf("[ measured ] track --overlay: %.2f %% of the pixels marked; video against the "
+                    "frames drawn: %.2f dB on the marks, %.2f dB elsewhere; against the truth "
+                    "elsewhere: frames drawn %.2f dB, video %.2f dB\n",
+                    100 * marked, pooledPsnr(video, drawn, marks), pooledPsnr(video, drawn, unmarked),
+                    pooledPsnr(drawn, truth, unmarked), pooledPsnr(video, truth, unmarked));
+        for (const char* pf : {"yuv444p"}) {
+            const std::string alt = dir / (std::string("overlay_") + pf + ".mp4");
+            r = vbme_test::run(base + alt + " --pix-fmt " + pf + " --out " + (dir / "out3") + " --force");
+            ASSERT_EQ(r.code, 0) << r.output;
+            const std::vector<Mat> v = decodeAll(alt);
+            std::printf("[ measured ] track --overlay --pix-fmt %s: %.2f dB against the truth (frames drawn %.2f dB); marks %.2f dB, elsewhere %.2f dB against the frames drawn\n", pf,
+                        pooledPsnr(v, truth, regions), pooledPsnr(drawn, truth, regions), pooledPsnr(v, drawn, marks), pooledPsnr(v, drawn, unmarked));
+        }
+    }
+    ASSERT_GT(marked, 0.001) << "the overlay draws nothing";
+    expectVideoKeepsFrames("track --overlay", drawn, dir / "overlay.mp4", truth, regions, dir);
+}
+
+#if VBME_HAVE_ROOM_SEQUENCE
+// track-camera --overlay on a hand-held walk through a textured room with sensor noise (12
+// frames at 320x240, sigma 3, lossless FFV1 input); truth: the clean renders with the
+// command's room box and labels. The second run (image-pattern overlay) resumes the first's
+// COLMAP work, and the test checks that both runs wrote the same camera path, so that both
+// overlays drew the same marks.
+TEST(AppVideoQuality, TrackCameraOverlayVideoKeepsWhatWasDrawn) {
+    if (vbme_test::run("colmap help").code != 0)
+        GTEST_SKIP() << "the colmap program is not installed";
+    vbme_test::ScratchDir dir;
+    const Scene s0 = syntheticRoomScene();
+    s0.write(dir / "frame0.yml");
+    const int n = 12;
+    const std::vector<Camera> cams = handheldCameraPath(s0.camera, n, 1.0, 0.01, 0.4, 9);
+    const auto textures = makeRoomTextures(4, 512);
+    std::vector<Mat> input, truth_clean, regions;
+    {
+        VideoSinkOptions lossless;
+        lossless.codec = "ffv1";
+        VideoSink sink(dir / "walk.mkv", 24, s0.image_size, lossless);
+        for (int i = 0; i < n; ++i) {
+            truth_clean.push_back(renderTexturedRoom(cams[i], s0.room, textures, 2));
+            input.push_back(withNoise(truth_clean.back(), 1000 + i));
+            sink.write(input.back());
+            regions.push_back(Mat(s0.image_size, CV_8UC1, Scalar(255)));
+        }
+        sink.close();
+    }
+    const std::string base = kExe + " track-camera -q --video " + (dir / "walk.mkv") + " --scene " +
+                             (dir / "frame0.yml") + " --work " + (dir / "work") +
+                             " --stride 2 --force";
+    auto r = vbme_test::run(base + " --out " + (dir / "cams1.yml") + " --overlay " +
+                            (dir / "overlay.mp4"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    r = vbme_test::run(base + " --out " + (dir / "cams2.yml") + " --overlay " +
+                       (dir / "drawn/%05d.png"));
+    ASSERT_EQ(r.code, 0) << r.output;
+    const CameraPath a = CameraPath::read(dir / "cams1.yml"),
+                     b = CameraPath::read(dir / "cams2.yml");
+    ASSERT_EQ(a.frames.size(), (size_t)n);
+    ASSERT_EQ(b.frames.size(), (size_t)n);
+    for (int i = 0; i < n; ++i)
+        ASSERT_LT(norm(a.camera(i).center() - b.camera(i).center()), 1e-9) << "frame " << i;
+    const std::vector<Mat> drawn = decodeAll(dir / "drawn/%05d.png");
+    ASSERT_EQ((int)drawn.size(), n);
+    double marked = 0;
+    const std::vector<Mat> truth = truthWithMarks(truth_clean, input, drawn, &marked);
+    std::printf("[ measured ] track-camera --overlay: %.2f %% of the pixels marked\n",
+                100 * marked);
+    ASSERT_GT(marked, 0.001) << "the overlay draws nothing";
+    expectVideoKeepsFrames("track-camera --overlay", drawn, dir / "overlay.mp4", truth, regions,
+                           dir);
+}
+#endif

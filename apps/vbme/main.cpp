@@ -36,6 +36,12 @@ void addVideoOutputOptions(CLI::App& app, cv::vbme::VideoSinkOptions& opts) {
                    "from a lossy input keeps at least the input's bit rate")
         ->check(CLI::Range(0, 51))
         ->capture_default_str();
+    app.add_option("--preset", opts.preset,
+                   "Speed preset of h264/h265 (x264/x265): slower presets give smaller files at "
+                   "about the same quality, for more time")
+        ->check(CLI::IsMember({"ultrafast", "superfast", "veryfast", "faster", "fast", "medium",
+                               "slow", "slower", "veryslow", "placebo"}))
+        ->capture_default_str();
     app.add_option("--pix-fmt", opts.pix_fmt,
                    "Pixel format of the encoded video, e.g. yuv444p, yuv420p10le (default: "
                    "yuv420p for h264/h265, yuv422p10le for prores, bgr0 for ffv1)");

@@ -1,12 +1,18 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
-// Material edit, driver: runMaterialEdit from file to file. Decoding of the next frame and
-// encoding of the last one run in their own threads, overlapping MaterialEditor's work.
+// Material edit, driver: runMaterialEdit from file to file. Decoding and encoding run in their
+// own threads, joined to MaterialEditor's work by bounded queues: the decoder reads ahead and
+// the encoder writes behind by at most kQueued frames each, so the three overlap while memory
+// stays bounded whatever the video's length; frames are encoded in their order by one thread.
 #include <unistd.h>
 
 #include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <exception>
 #include <filesystem>
-#include <future>
 #include <memory>
+#include <mutex>
+#include <thread>
 #include <vector>
 
 #include <opencv2/core/utils/logger.hpp>
@@ -21,6 +27,72 @@ namespace vbme {
 namespace fs = std::filesystem;
 
 namespace {
+
+/** Frames each queue between the threads holds at most. */
+const size_t kQueued = 4;
+
+/** A queue of at most @p capacity items between a producing and a consuming thread. close()
+ends it: push() then refuses (returns false), pop() returns what is left, then false. */
+template <class T>
+class BoundedQueue {
+public:
+    explicit BoundedQueue(size_t capacity) : capacity_(capacity) {}
+    bool push(T v) {
+        std::unique_lock<std::mutex> l(m_);
+        not_full_.wait(l, [&] { return q_.size() < capacity_ || closed_; });
+        if (closed_) return false;
+        q_.push_back(std::move(v));
+        not_empty_.notify_one();
+        return true;
+    }
+    bool pop(T& v) {
+        std::unique_lock<std::mutex> l(m_);
+        not_empty_.wait(l, [&] { return !q_.empty() || closed_; });
+        if (q_.empty()) return false;
+        v = std::move(q_.front());
+        q_.pop_front();
+        not_full_.notify_one();
+        return true;
+    }
+    void close() {
+        std::lock_guard<std::mutex> l(m_);
+        closed_ = true;
+        not_full_.notify_all();
+        not_empty_.notify_all();
+    }
+
+private:
+    std::mutex m_;
+    std::condition_variable not_full_, not_empty_;
+    std::deque<T> q_;
+    size_t capacity_;
+    bool closed_ = false;
+};
+
+/** A decoded frame and its time. */
+struct Decoded {
+    Mat frame;
+    double time = 0;
+};
+
+/** An edited frame on its way to the encoder, with what is written beside it. */
+struct Edited {
+    Mat out, filled, hole, env;
+    int index = 0;
+    double time = 0;
+};
+
+/** On scope exit (an error included): closes the queue feeding or fed by a thread, so that
+the thread stops, then joins it. */
+template <class Q>
+struct StopAndJoin {
+    Q& queue;
+    std::thread& thread;
+    ~StopAndJoin() {
+        queue.close();
+        if (thread.joinable()) thread.join();
+    }
+};
 
 /** Removes a staging folder on scope exit. */
 struct Staging {
@@ -93,59 +165,91 @@ PipelineReport runEdit(const MaterialEditParams& p, const PipelineProgress& prog
 
     const int64 total = std::max(0, reader.frameCount());
     int64 done = 0;
-    std::future<void> encoding;
-    auto drain = [&] {
-        Mat out, filled, hole, env;
-        while (editor->pop(out, filled, hole, env)) {
-            const int index = editor->results().back().index;
-            // Encoding runs in its own thread, overlapping the next frame's work.
-            if (encoding.valid()) encoding.get();
-            encoding = std::async(
-                std::launch::async, [&, out, filled, hole, env, index, time = times[index]] {
-                    ScopedTimer t(encode_s);
-                    sink.write(out, time);
-                    if (bg_sink) bg_sink->write(filled);
-                    if (!inter.empty()) {
-                        imwriteAtomic((staging.dir / maskFileName(index)).string(), hole);
-                        if (!env.empty() && index % p.env_every == 0) {
-                            Mat ch[3];
-                            split(env, ch);
-                            writeExrChannels((staging.dir / format("env_%05d.exr", index)).string(),
-                                             {{"R", ch[2]}, {"G", ch[1]}, {"B", ch[0]}});
-                        }
+
+    // ---- Decoding thread: reads ahead into `decoded`.
+    BoundedQueue<Decoded> decoded(kQueued);
+    std::exception_ptr decode_error;
+    std::thread decoder([&] {
+        try {
+            for (;;) {
+                Decoded d;  // a new buffer each frame: the queued ones stay untouched
+                bool ok;
+                {
+                    ScopedTimer t(decode_s);
+                    ok = reader.read(d.frame);
+                }
+                if (!ok) break;
+                d.time = reader.timestamp();
+                if (!decoded.push(std::move(d))) break;  // the run stopped
+            }
+        } catch (...) {
+            decode_error = std::current_exception();
+        }
+        decoded.close();
+    });
+    StopAndJoin<BoundedQueue<Decoded>> stop_decoder{decoded, decoder};
+
+    // ---- Encoding thread: writes `edited` in order (the only thread using the sinks).
+    BoundedQueue<Edited> edited(kQueued);
+    std::exception_ptr encode_error;
+    std::thread encoder([&] {
+        try {
+            Edited e;
+            while (edited.pop(e)) {
+                ScopedTimer t(encode_s);
+                sink.write(e.out, e.time);
+                if (bg_sink) bg_sink->write(e.filled);
+                if (!inter.empty()) {
+                    imwriteAtomic((staging.dir / maskFileName(e.index)).string(), e.hole);
+                    if (!e.env.empty() && e.index % p.env_every == 0) {
+                        Mat ch[3];
+                        split(e.env, ch);
+                        writeExrChannels((staging.dir / format("env_%05d.exr", e.index)).string(),
+                                         {{"R", ch[2]}, {"G", ch[1]}, {"B", ch[0]}});
                     }
-                });
+                }
+            }
+        } catch (...) {
+            encode_error = std::current_exception();
+        }
+        edited.close();  // a failed encoder refuses further frames
+    });
+    StopAndJoin<BoundedQueue<Edited>> stop_encoder{edited, encoder};
+    // Hands the frames the editor has finished to the encoder; false when the encoder failed.
+    auto drain = [&] {
+        Edited e;
+        while (editor->pop(e.out, e.filled, e.hole, e.env)) {
+            e.index = editor->results().back().index;
+            e.time = times[e.index];
+            if (!edited.push(std::move(e))) return false;
+            e = Edited();
             ++done;
             if (progress) progress("material-edit", done, total);
         }
+        return true;
     };
-    try {
-        for (;;) {
-            editor->push(frame);
-            // Decode the next frame in its own thread while this one is processed.
-            Mat next_frame;
-            std::future<bool> decoding = std::async(std::launch::async, [&] {
-                ScopedTimer t(decode_s);
-                return reader.read(next_frame);
-            });
-            try {
-                drain();
-            } catch (...) {
-                decoding.wait();
-                throw;
-            }
-            if (!decoding.get()) break;
-            times.push_back(reader.timestamp());
-            frame = next_frame;  // the editor keeps its own reference to the previous frame
-        }
-        editor->finish();
-        drain();
-    } catch (...) {
-        if (encoding.valid()) encoding.wait();
-        throw;
+    bool encoding = true, decoding = true;
+    for (;;) {
+        editor->push(frame);
+        if (!(encoding = drain())) break;
+        Decoded d;
+        if (!decoded.pop(d)) break;
+        times.push_back(d.time);
+        frame = d.frame;  // the editor keeps its own reference to the previous frame
     }
+    // the decoder's error is set before it closes its queue, which pop() saw (under its lock)
+    if (encoding && decode_error) decoding = false;
+    if (encoding && decoding) {
+        editor->finish();
+        encoding = drain();
+    }
+    edited.close();  // no more frames: the encoder finishes the queued ones and stops
+    encoder.join();
+    if (encode_error) std::rethrow_exception(encode_error);
+    decoded.close();
+    decoder.join();
+    if (decode_error) std::rethrow_exception(decode_error);
 
-    if (encoding.valid()) encoding.get();
     {
         ScopedTimer t(encode_s);
         sink.close();

@@ -165,8 +165,8 @@ struct CV_EXPORTS VideoSinkOptions {
     that encoding loses little against the truth on noisy textured footage (figures in
     doc/vbme_core.md, "Writing", Quality). */
     int crf = 14;
-    /** x264/x265 preset. */
-    std::string preset = "medium";
+    /** x264/x265 speed preset (doc/vbme_core.md, "Writing": why superfast is the default). */
+    std::string preset = "superfast";
     /** When > 0 (h264/h265): average bit rate in bit/s to encode at instead of the CRF (e.g.
     to match an input's rate, VideoReader::bitRate()). */
     int64 bitrate = 0;
