@@ -127,6 +127,7 @@ inline cv::vbme::VideoSinkOptions changedVideoSinkOptions() {
     o.bitrate = 4000000;
     o.min_bitrate = 2500000;
     o.pix_fmt = "yuv444p";
+    o.full_chroma = true;
     o.color.primaries = 9;
     o.color.transfer = 14;
     o.color.matrix = 9;

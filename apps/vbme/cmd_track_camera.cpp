@@ -92,8 +92,10 @@ void runTrackCamera(const TrackCameraOptions& o) {
 
     if (!o.overlay.empty()) {
         VideoReader reader(o.video);
-        VideoSink sink(o.overlay, reader.fps(), reader.frameSize(),
-                       sinkOptionsFrom(reader, o.overlay, o.encode));
+        // full chroma unless a pixel format is asked for: 4:2:0 blurs the one-pixel box and text
+        VideoSinkOptions so = sinkOptionsFrom(reader, o.overlay, o.encode);
+        so.full_chroma = true;
+        VideoSink sink(o.overlay, reader.fps(), reader.frameSize(), so);
         Progress progress("overlay", (int64)path.frames.size());
         Mat f;
         for (size_t i = 0; i < path.frames.size() && reader.read(f); ++i) {

@@ -1122,6 +1122,8 @@ void VideoSink::Impl::openEncoder(bool deep_frames) {
             pf = deep ? "gbrp16le" : "bgr0";
         else if (c == "prores")
             pf = "yuv422p10le";
+        else if (opt.full_chroma && (c == "h264" || c == "h265"))
+            pf = deep ? "yuv444p10le" : "yuv444p";
         else
             pf = deep ? "yuv420p10le" : "yuv420p";
     }

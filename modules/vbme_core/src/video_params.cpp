@@ -65,6 +65,7 @@ void VideoSinkOptions::read(const FileNode& fn) {
     in("bitrate", bitrate);
     in("min_bitrate", min_bitrate);
     in("pix_fmt", pix_fmt);
+    in("full_chroma", full_chroma);
     in("color", color);
     in("audio_from", audio_from);
     in("time_base", time_base);
@@ -90,6 +91,7 @@ void VideoSinkOptions::write(FileStorage& fs) const {
     fs << "codec" << codec << "crf" << crf << "preset" << preset << "bitrate" << (double)bitrate;
     fs << "min_bitrate" << (double)min_bitrate;
     fs << "pix_fmt" << pix_fmt;
+    fs << "full_chroma" << (int)full_chroma;
     fs << "color"
        << "{";
     color.write(fs);

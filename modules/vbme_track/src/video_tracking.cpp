@@ -99,9 +99,12 @@ TrackVideoSummary trackVideo(const std::string& video, InputArray _first_mask,
     summary.init_report = tracker->initReport();
     StagingDir staging(dir);
     std::unique_ptr<VideoSink> overlay;
-    if (!opt.overlay.empty())
-        overlay.reset(new VideoSink(opt.overlay, reader.fps(), frame.size(),
-                                    sinkOptionsFrom(reader, opt.overlay, opt.overlay_encode)));
+    if (!opt.overlay.empty()) {
+        // full chroma unless a pixel format is asked for: 4:2:0 blurs the one-pixel marks
+        VideoSinkOptions so = sinkOptionsFrom(reader, opt.overlay, opt.overlay_encode);
+        so.full_chroma = true;
+        overlay.reset(new VideoSink(opt.overlay, reader.fps(), frame.size(), so));
+    }
     const fs::path csv_tmp = staging.path() / "track.csv";
     std::ofstream csv(csv_tmp);
     if (!csv) CV_Error(Error::StsError, "cannot write '" + csv_tmp.string() + "'");

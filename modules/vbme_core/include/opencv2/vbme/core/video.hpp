@@ -179,6 +179,10 @@ struct CV_EXPORTS VideoSinkOptions {
     /** Pixel format of the encoded video: "" (default: yuv420p for h264/h265, yuv422p10le for
     prores, bgr0 for ffv1) or e.g. "yuv444p", "yuv420p10le". */
     std::string pix_fmt;
+    /** With an empty @ref pix_fmt, h264/h265 are encoded with full chroma (yuv444p, 16-bit
+    frames yuv444p10le) instead of 4:2:0. Set for overlays: 4:2:0 blurs the colour of their
+    one-pixel marks and text (doc/vbme_core.md, "Writing", Quality). */
+    bool full_chroma = false;
     /** Colour tags written to the stream (frames are not converted). */
     VideoColorInfo color = VideoColorInfo::sdrDefault();
     /** A video whose audio streams are carried into the output (stream copy; re-encoded to AAC

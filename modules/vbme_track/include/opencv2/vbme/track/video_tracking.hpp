@@ -27,7 +27,8 @@ struct CV_EXPORTS TrackVideoOptions {
     ObjectTracker::Params params;  //!< tracker settings
     std::string overlay;           //!< if set, an overlay video (or image pattern) written here
     /** Encoding of the overlay video (codec, quality); the input's timestamps, colour tags and
-    audio are added (cv::vbme::sinkOptionsFrom). */
+    audio are added (cv::vbme::sinkOptionsFrom), and H.264/H.265 get full chroma
+    (VideoSinkOptions::full_chroma) unless a pixel format is given. */
     VideoSinkOptions overlay_encode;
     bool force = false;  //!< replace existing outputs
 
