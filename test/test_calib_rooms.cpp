@@ -137,6 +137,64 @@ void print(const char* name, const Summary& s, size_t n) {
         name, s.p50, s.p75, s.p90, s.over10, (int)n, s.failed, s.aa3, s.aa5, s.aa10);
 }
 
+/** Annotated overlay for looking at failures (VBME_CALIB_ROOMS_DUMP=dir): the image inside a
+margin of half its size; segments coloured by the estimated world axis (x red, y green, z
+blue, outliers grey); true vanishing points as rings and true horizon white, estimated
+vanishing points as crosses and estimated horizon yellow (points outside the canvas are drawn
+at its border). */
+void dumpOverlay(const std::string& dir, const Truth& t, const Mat& img,
+                 const FrameCalibration& c) {
+    const int mx = img.cols / 2, my = img.rows / 2;
+    Mat ov(img.rows + 2 * my, img.cols + 2 * mx, CV_8UC3, Scalar(40, 40, 40));
+    img.copyTo(ov(Rect(mx, my, img.cols, img.rows)));
+    const Point2d o(mx, my);
+    const Scalar col[4] = {Scalar(150, 150, 150), Scalar(0, 0, 255), Scalar(0, 200, 0),
+                           Scalar(255, 80, 0)};
+    for (size_t i = 0; i < c.segments.size(); ++i)
+        line(ov, o + Point2d(c.segments[i][0], c.segments[i][1]),
+             o + Point2d(c.segments[i][2], c.segments[i][3]), col[c.labels[i] + 1],
+             c.labels[i] < 0 ? 1 : 2);
+    auto clampPt = [&](Vec3d v) {
+        if (v[2] < 0) v = -v;
+        Point2d p = std::abs(v[2]) < 1e-9 ? Point2d(v[0] * 1e9, v[1] * 1e9)
+                                          : Point2d(v[0] / v[2], v[1] / v[2]);
+        p += o;
+        const Point2d ctr(ov.cols / 2.0, ov.rows / 2.0);
+        const double s =
+            std::max(std::abs(p.x - ctr.x) / (ctr.x - 8), std::abs(p.y - ctr.y) / (ctr.y - 8));
+        return s > 1 ? ctr + (p - ctr) * (1 / s) : p;
+    };
+    auto horizon = [&](const Matx33d& K, const Matx33d& R, const Scalar& cl) {
+        const Vec3d up(R(0, 2), R(1, 2), R(2, 2));
+        const Vec3d l =
+            K.inv().t() * up;  // image line of the vanishing points of horizontal directions
+        std::vector<Point2d> pts;
+        if (std::abs(l[1]) > std::abs(l[0])) {
+            for (double x : {-(double)mx, (double)img.cols + mx})
+                pts.emplace_back(x, -(l[0] * x + l[2]) / l[1]);
+        } else {
+            for (double y : {-(double)my, (double)img.rows + my})
+                pts.emplace_back(-(l[1] * y + l[2]) / l[0], y);
+        }
+        line(ov, o + pts[0], o + pts[1], cl, 1, LINE_AA);
+    };
+    const Matx33d Kt(t.f, 0, t.c.x, 0, t.f, t.c.y, 0, 0, 1);
+    horizon(Kt, t.R, Scalar(255, 255, 255));
+    horizon(c.K, c.R, Scalar(0, 255, 255));
+    for (int a = 0; a < 3; ++a) {
+        const Vec3d tv = Kt * Vec3d(t.R(0, a), t.R(1, a), t.R(2, a));
+        circle(ov, clampPt(tv), 9, col[a + 1], 2, LINE_AA);
+        circle(ov, clampPt(tv), 11, Scalar(255, 255, 255), 1, LINE_AA);
+        drawMarker(ov, clampPt(c.vanishing_points[a]), col[a + 1], MARKER_CROSS, 22, 3);
+    }
+    putText(ov,
+            format("f true %.0f est %.0f (%.1f %%) conf %.2f  segs %d", t.f, c.focal(),
+                   100 * (c.focal() / t.f - 1), c.confidence, (int)c.segments.size()),
+            Point(10, 24), FONT_HERSHEY_SIMPLEX, 0.7, Scalar(255, 255, 255), 2);
+    const std::string base = t.name.substr(t.name.rfind('/') + 1);
+    imwrite(dir + "/" + base + ".png", ov);
+}
+
 /** Every image is processed once (both methods, proposals, distortion), then the tests look
 at the results. */
 struct Results {
@@ -163,18 +221,8 @@ const Results& results() {
             try {
                 const auto props = detectManhattanProposals(img, pg, 3);
                 og = evaluate(t, props[0].calibration);
-                if (const char* dump = std::getenv("VBME_CALIB_ROOMS_DUMP")) {
-                    // Segments coloured by world axis (x red, y green, z blue, outliers grey).
-                    Mat ov = img.clone();
-                    const FrameCalibration& c = props[0].calibration;
-                    const Scalar col[4] = {Scalar(128, 128, 128), Scalar(0, 0, 255),
-                                           Scalar(0, 255, 0), Scalar(255, 0, 0)};
-                    for (size_t i = 0; i < c.segments.size(); ++i)
-                        line(ov, Point2f(c.segments[i][0], c.segments[i][1]),
-                             Point2f(c.segments[i][2], c.segments[i][3]), col[c.labels[i] + 1], 2);
-                    const std::string base = t.name.substr(t.name.rfind('/') + 1);
-                    imwrite(std::string(dump) + "/" + base + ".png", ov);
-                }
+                if (const char* dump = std::getenv("VBME_CALIB_ROOMS_DUMP"))
+                    dumpOverlay(std::string(dump), t, img, props[0].calibration);
                 for (const auto& p : props) {
                     const Outcome o = evaluate(t, p.calibration);
                     const bool right = o.focal_err < 0.05 &&

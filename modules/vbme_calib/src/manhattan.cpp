@@ -93,20 +93,103 @@ std::vector<Piece> mergeCollinear(std::vector<Piece> s) {
     return out;
 }
 
+/** Sub-pixel refit of a segment's line on the full-resolution image: along the segment, the
+peak of the gradient across it (within ±@p reach px, parabolic interpolation) is found at
+every pixel step; a weighted line fit through the peaks (two rounds, the second without
+peaks more than 1 px off) replaces the segment's line, keeping its extent. Segments from the
+coarse LSD passes are found where the fine pass misses soft edges, but their position is
+only as good as the coarse pixel; this recovers full-resolution precision. */
+bool refitPiece(const Mat& gx, const Mat& gy, Piece& pc, double reach) {
+    const double L = pc.len();
+    if (L < 8) return false;
+    const Vec2d u = (pc.q - pc.p) / L, nrm(-u[1], u[0]);
+    auto bil = [](const Mat& m, double x, double y) {
+        const int x0 = (int)std::floor(x), y0 = (int)std::floor(y);
+        if (x0 < 0 || y0 < 0 || x0 + 1 >= m.cols || y0 + 1 >= m.rows) return 0.0f;
+        const float fx = (float)(x - x0), fy = (float)(y - y0);
+        const float* r0 = m.ptr<float>(y0);
+        const float* r1 = m.ptr<float>(y0 + 1);
+        return (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) +
+               fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
+    };
+    const int ns = (int)std::ceil(reach);
+    std::vector<double> ts, ss, ws;
+    std::vector<double> g(2 * ns + 1);
+    for (double t = 0.05 * L; t <= 0.95 * L; t += 1.0) {
+        const Vec2d c = pc.p + t * u;
+        double best = 0;
+        int bk = -1;
+        for (int k = -ns; k <= ns; ++k) {
+            const Vec2d x = c + k * nrm;
+            g[k + ns] = bil(gx, x[0], x[1]) * nrm[0] + bil(gy, x[0], x[1]) * nrm[1];
+            if (std::abs(g[k + ns]) > best) {
+                best = std::abs(g[k + ns]);
+                bk = k + ns;
+            }
+        }
+        if (bk <= 0 || bk >= 2 * ns) continue;  // peak at the window's edge: not this edge
+        const double a = std::abs(g[bk - 1]), b = std::abs(g[bk]), cc = std::abs(g[bk + 1]);
+        const double den = a - 2 * b + cc;
+        const double off = den < 0 ? 0.5 * (a - cc) / den : 0;
+        ts.push_back(t);
+        ss.push_back(bk - ns + std::max(-0.5, std::min(0.5, off)));
+        ws.push_back(b);
+    }
+    if (ts.size() < 6) return false;
+    double a0 = 0, a1 = 0;
+    std::vector<char> use(ts.size(), 1);
+    for (int round = 0; round < 2; ++round) {
+        double S = 0, St = 0, Ss = 0, Stt = 0, Sts = 0;
+        for (size_t i = 0; i < ts.size(); ++i) {
+            if (!use[i]) continue;
+            const double w = ws[i];
+            S += w;
+            St += w * ts[i];
+            Ss += w * ss[i];
+            Stt += w * ts[i] * ts[i];
+            Sts += w * ts[i] * ss[i];
+        }
+        const double det = S * Stt - St * St;
+        if (S <= 0 || std::abs(det) < 1e-12) return false;
+        a1 = (S * Sts - St * Ss) / det;
+        a0 = (Ss - a1 * St) / S;
+        int kept = 0;
+        for (size_t i = 0; i < ts.size(); ++i) {
+            use[i] = std::abs(ss[i] - a0 - a1 * ts[i]) <= 1.0;
+            kept += use[i];
+        }
+        if (kept < 6) return false;
+    }
+    if (std::abs(a0) > reach || std::abs(a0 + a1 * L) > reach) return false;
+    pc.p = pc.p + a0 * nrm;
+    pc.q = pc.q + (a0 + a1 * L) * nrm;
+    return true;
+}
+
 }  // namespace
 
 void detectSegmentsMerged(const Mat& gray, const VanishingPointCalibrator::Params& p,
                           std::vector<Vec4f>& segments) {
-    // Two passes: LSD on the image, and on a smoothed copy at half resolution, where its
-    // gradient test still finds the low-contrast edges of noisy images; the union is merged
-    // below (a line found by both passes becomes one segment).
+    // Three LSD passes after a 3×3 median (which removes the isolated bright and dark pixels
+    // of render and sensor noise): on the image; on a smoothed copy at half resolution; on a
+    // more smoothed copy at quarter resolution, where the soft shading edges of room corners,
+    // invisible to the gradient test at full resolution in a noisy image, become lines. The
+    // union is merged below (a line found by several passes becomes one segment) and every
+    // segment's line refitted at full resolution (refitPiece).
+    Mat g0;
+    medianBlur(gray, g0, 3);
     std::vector<Vec4f> raw;
-    createLineSegmentDetector(LSD_REFINE_STD, 0.8)->detect(gray, raw);
-    Mat smooth;
-    GaussianBlur(gray, smooth, Size(), 1.0);
-    std::vector<Vec4f> raw2;
-    createLineSegmentDetector(LSD_REFINE_STD, 0.5)->detect(smooth, raw2);
-    raw.insert(raw.end(), raw2.begin(), raw2.end());
+    const double scales[3] = {0.8, 0.5, 0.25}, blurs[3] = {0, 1.0, 2.0};
+    for (int k = 0; k < 3; ++k) {
+        Mat src;
+        if (blurs[k] > 0)
+            GaussianBlur(g0, src, Size(), blurs[k]);
+        else
+            src = g0;
+        std::vector<Vec4f> r;
+        createLineSegmentDetector(LSD_REFINE_STD, scales[k])->detect(src, r);
+        raw.insert(raw.end(), r.begin(), r.end());
+    }
     const double diag = std::hypot(gray.cols, gray.rows);
     const double minlen = p.min_segment_length > 0 ? p.min_segment_length : 0.03 * diag;
     // Pieces shorter than a third of the threshold are texture; longer ones may join up.
@@ -116,6 +199,15 @@ void detectSegmentsMerged(const Mat& gray, const VanishingPointCalibrator::Param
         if (pc.len() >= std::max(6.0, minlen / 3)) pieces.push_back(pc);
     }
     pieces = mergeCollinear(pieces);
+    {
+        Mat gf, gx, gy;
+        GaussianBlur(g0, gf, Size(), 1.0);
+        gf.convertTo(gf, CV_32F);
+        Sobel(gf, gx, CV_32F, 1, 0, 3);
+        Sobel(gf, gy, CV_32F, 0, 1, 3);
+        for (auto& pc : pieces)
+            refitPiece(gx, gy, pc, 3.0);
+    }
     segments.clear();
     for (const auto& pc : pieces)
         if (pc.len() >= minlen)
