@@ -277,6 +277,8 @@ focal length in units of W. */
 struct Frame {
     Matx33d D;
     double F = 1, kappa = 0, score = 0;
+    /** Standard deviation of log F from the refinement (0 when not refined or F is fixed). */
+    double sigma_logF = 0;
     Vec3d vp(int a) const { return Vec3d(F * D(0, a), F * D(1, a), D(2, a)); }
 };
 
@@ -500,7 +502,8 @@ void refineFrame(std::vector<Seg>& segs, Frame& fr, const VanishingPointCalibrat
     for (const auto& s : segs)
         mean_len += s.len;
     mean_len /= std::max<size_t>(1, segs.size());
-    for (int round = 0; round < 3; ++round) {
+    const int rounds = 3;
+    for (int round = 0; round < rounds; ++round) {
         setKappa(segs, fr.kappa);
         std::vector<int> labels;
         scoreFrame(segs, fr, &labels, 1.5);
@@ -536,6 +539,28 @@ void refineFrame(std::vector<Seg>& segs, Frame& fr, const VanishingPointCalibrat
         opt.logging_type = ceres::SILENT;
         ceres::Solver::Summary sum;
         ceres::Solve(opt, &problem, &sum);
+        if (round == rounds - 1 && p.focal <= 0) {
+            // Uncertainty of log F: (JᵀJ)⁻¹ of the robustified problem at the optimum, scaled
+            // by its residual variance (a Gauss–Newton covariance; κ left free when estimated).
+            ceres::Problem::EvaluateOptions eo;
+            eo.parameter_blocks = {rot, &logF};
+            if (est_kappa) eo.parameter_blocks.push_back(&kappa);
+            double cost = 0;
+            std::vector<double> res;
+            ceres::CRSMatrix J;
+            problem.Evaluate(eo, &cost, &res, nullptr, &J);
+            const int np = J.num_cols;
+            Mat JtJ = Mat::zeros(np, np, CV_64F);
+            for (int r = 0; r < J.num_rows; ++r)
+                for (int a = J.rows[r]; a < J.rows[r + 1]; ++a)
+                    for (int b = J.rows[r]; b < J.rows[r + 1]; ++b)
+                        JtJ.at<double>(J.cols[a], J.cols[b]) += J.values[a] * J.values[b];
+            const int dof = std::max(1, (int)res.size() - np);
+            const double s2 = 2 * cost / dof;
+            Mat cov;
+            if (invert(JtJ, cov, DECOMP_SVD) > 0)
+                fr.sigma_logF = std::sqrt(std::max(0.0, s2 * cov.at<double>(3, 3)));
+        }
         Matx33d dR;
         Rodrigues(Vec3d(rot[0], rot[1], rot[2]), dR);
         fr.D = dR * fr.D;
@@ -629,11 +654,7 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Siz
     }
     std::vector<ManhattanProposal> out;
     std::string first_reason;
-    const double gamma = 8;
-    double zsum = 0;
-    for (const auto& f : uniq)
-        zsum += std::pow(f.score / uniq[0].score, gamma);
-    for (size_t k = 0; k < uniq.size() && (int)out.size() < max_proposals; ++k) {
+    for (size_t k = 0; k < uniq.size(); ++k) {
         const Frame& fr = uniq[k];
         setKappa(segs, fr.kappa);
         std::vector<int> labels;
@@ -699,28 +720,54 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Siz
             c.vanishing_points[a] = v;
         }
         c.rms_px = ninl ? std::sqrt(s2 / ninl) : 0;
+        c.focal_rel_sigma = fr.sigma_logF;
         const double second = support_len[order[1]];
+        // A frame whose vanishing points pin the focal length down weakly (relative σ of
+        // several per cent) is often wrong, whatever its consensus: confidence falls with σ.
+        const double sig_ref = 0.04;
         c.confidence = std::min(1.0, inlier_len) * std::min(1.0, second / 0.1) *
-                       std::min(1.0, support[order[1]] / 4.0);
+                       std::min(1.0, support[order[1]] / 4.0) /
+                       (1 + std::pow(fr.sigma_logF / sig_ref, 2));
         mp.score = fr.score;
-        const double share = std::pow(fr.score / uniq[0].score, gamma) / zsum;
-        mp.confidence = c.confidence * share;
-        for (size_t j = 0; j < uniq.size(); ++j)
-            if (j != k && uniq[j].score > 0.9 * fr.score && uniq[j].score < fr.score / 0.9)
-                mp.ambiguous = true;
-        if (mp.ambiguous)
-            mp.note = "another Manhattan frame scores within 10 %; check both";
-        else if (c.confidence < p.min_confidence)
+        if (c.confidence < p.min_confidence)
             mp.note = format(
                 "weak: %.0f %% of the segments' length explained, %d/%d/%d segments "
-                "per direction",
-                100 * inlier_len, support[0], support[1], support[2]);
+                "per direction, focal length ±%.0f %%",
+                100 * inlier_len, support[0], support[1], support[2], 100 * fr.sigma_logF);
         out.push_back(mp);
     }
     if (out.empty())
         CV_Error(Error::StsError,
                  "automatic detection gave " + first_reason + "; annotate the lines by hand");
-    return out;
+    // Quality of each frame: its own confidence times its (sharpened) consensus relative to
+    // the best. Proposals are ranked by it; a proposal's confidence is its own confidence times
+    // its share of the qualities. The best and any other proposal of at least half its quality
+    // are flagged ambiguous: both are plausible and the user should choose.
+    const double gamma = 8, ambiguous_ratio = 0.5;
+    double best_score = 0;
+    for (const auto& m : out)
+        best_score = std::max(best_score, m.score);
+    std::vector<double> q(out.size());
+    for (size_t k = 0; k < out.size(); ++k)
+        q[k] = out[k].calibration.confidence * std::pow(out[k].score / best_score, gamma);
+    std::vector<size_t> order(out.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return q[a] > q[b]; });
+    const double qsum = std::accumulate(q.begin(), q.end(), 0.0);
+    const double q0 = q[order[0]];
+    const bool rival = order.size() > 1 && q[order[1]] >= ambiguous_ratio * q0 && q0 > 0;
+    std::vector<ManhattanProposal> ranked;
+    for (size_t r = 0; r < order.size() && (int)r < max_proposals; ++r) {
+        ManhattanProposal mp = out[order[r]];
+        const double qk = q[order[r]];
+        mp.confidence = qsum > 0 ? mp.calibration.confidence * qk / qsum : 0;
+        mp.ambiguous = rival && qk >= ambiguous_ratio * q0;
+        if (mp.ambiguous)
+            mp.note = r == 0 ? "another Manhattan frame is nearly as good; check both"
+                             : "nearly as good as the first proposal; check both";
+        ranked.push_back(mp);
+    }
+    return ranked;
 }
 
 }  // namespace detail

@@ -84,7 +84,12 @@ struct CV_EXPORTS FrameCalibration {
     /** @brief In [0, 1]: share of the segments' length explained by the three directions,
     reduced when the second-best direction has few segments (1 for user-given lines). */
     double confidence = 0;
-    double rms_px = 0;            //!< RMS distance of segment endpoints to their VP lines
+    double rms_px = 0;  //!< RMS distance of segment endpoints to their VP lines
+    /** @brief Relative standard deviation of the focal length (automatic detection: from the
+    covariance of the joint refinement; 0 when the focal length is given or not estimated that
+    way). Large when the vanishing points constrain the focal length weakly (one of them near
+    the image centre, or at infinity). */
+    double focal_rel_sigma = 0;
     std::vector<Vec4f> segments;  //!< segments used (detected or given)
     std::vector<int> labels;      //!< world axis of each segment (0, 1, 2) or −1 (outlier)
     /** @brief Radial distortion coefficient (one-parameter model of OpenCV / COLMAP
