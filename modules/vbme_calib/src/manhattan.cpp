@@ -283,7 +283,7 @@ struct Frame {
 };
 
 double scoreFrame(const std::vector<Seg>& segs, const Frame& fr, std::vector<int>* labels,
-                  double thr_scale = 1.0) {
+                  double thr_scale = 1.0, bool exclusive = false) {
     const Vec3d V[3] = {fr.vp(0), fr.vp(1), fr.vp(2)};
     double sc = 0;
     if (labels) labels->assign(segs.size(), -1);
@@ -303,6 +303,12 @@ double scoreFrame(const std::vector<Seg>& segs, const Frame& fr, std::vector<int
             sc += s.w * (1 - r * r);
         }
         if (labels) (*labels)[i] = ba;
+        if (labels && exclusive && ba >= 0) {
+            // A segment that also points at another vanishing point (it lies on the line
+            // joining the two) tells them apart from nothing: left out.
+            for (int a = 0; a < 3; ++a)
+                if (a != ba && angleSin(s, V[a]) < s.thr * thr_scale) (*labels)[i] = -1;
+        }
     }
     return sc;
 }
@@ -506,7 +512,7 @@ void refineFrame(std::vector<Seg>& segs, Frame& fr, const VanishingPointCalibrat
     for (int round = 0; round < rounds; ++round) {
         setKappa(segs, fr.kappa);
         std::vector<int> labels;
-        scoreFrame(segs, fr, &labels, 1.5);
+        scoreFrame(segs, fr, &labels, 1.5, true);
         double rot[3] = {0, 0, 0}, logF = std::log(fr.F), kappa = fr.kappa;
         ceres::Problem problem;
         int nres = 0;
