@@ -81,10 +81,11 @@ void runCalibrate(const CalibrateOptions& o) {
         const auto props = detectManhattanProposals(image, opt.vp, o.proposals);
         for (size_t i = 0; i < props.size(); ++i) {
             const FrameCalibration& c = props[i].calibration;
-            std::printf("proposal %d: focal %.1f px, score %.3f, confidence %.2f%s%s%s\n",
-                        (int)i + 1, c.focal(), props[i].score, props[i].confidence,
-                        opt.vp.estimate_distortion ? cv::format(", k1 %.4f", c.k1).c_str() : "",
-                        props[i].note.empty() ? "" : "; ", props[i].note.c_str());
+            std::printf(
+                "proposal %d: focal %.1f px (±%.1f %%), score %.3f, confidence %.2f%s%s%s\n",
+                (int)i + 1, c.focal(), 100 * c.focal_rel_sigma, props[i].score, props[i].confidence,
+                opt.vp.estimate_distortion ? cv::format(", k1 %.4f", c.k1).c_str() : "",
+                props[i].note.empty() ? "" : "; ", props[i].note.c_str());
         }
     }
     if (o.camera_height <= 0 && ann.camera_height <= 0 && ann.room.empty())
@@ -111,10 +112,12 @@ void runCalibrate(const CalibrateOptions& o) {
     const cv::Vec3d v(R(2, 0), R(2, 1), R(2, 2));
     const double heading = std::atan2(v[0], v[1]) * 180 / CV_PI;
     const double elevation = std::asin(std::max(-1.0, std::min(1.0, v[2]))) * 180 / CV_PI;
-    std::printf("focal %.1f px (horizontal fov %.1f deg), principal point (%.1f, %.1f)\n",
-                scene.camera.K(0, 0),
-                2 * std::atan2(image.cols * 0.5, scene.camera.K(0, 0)) * 180 / CV_PI,
-                scene.camera.K(0, 2), scene.camera.K(1, 2));
+    std::printf(
+        "focal %.1f px%s (horizontal fov %.1f deg), principal point (%.1f, %.1f)\n",
+        scene.camera.K(0, 0),
+        fc.focal_rel_sigma > 0 ? cv::format(" ±%.1f %%", 100 * fc.focal_rel_sigma).c_str() : "",
+        2 * std::atan2(image.cols * 0.5, scene.camera.K(0, 0)) * 180 / CV_PI, scene.camera.K(0, 2),
+        scene.camera.K(1, 2));
     if (opt.vp.estimate_distortion)
         std::printf(
             "radial distortion k1 %.4f (x_d = x (1 + k1 |x|^2), x = K^-1 p; frames are "
