@@ -4,8 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/vbme/calib.hpp>
 #include <opencv2/vbme/calib/projection.hpp>
@@ -324,4 +326,72 @@ TEST(CalibRoom, GivenPrincipalPointIsUsed) {
     EXPECT_NEAR(s.camera.K(0, 2), 331, 1e-12);
     EXPECT_NEAR(s.camera.K(1, 2), 227, 1e-12);
     EXPECT_NEAR(s.camera.K(0, 0), 650, 1e-6);
+}
+
+// With an estimated k1 the overlay draws the box as the lens bends it: each box edge's
+// midpoint, distorted by k1, is on a white line of the k1 overlay and not of the pinhole one
+// (and the undistorted midpoint the other way round). Oracle: distortPointK1, the inverse of
+// undistortPointK1 (checked to round-trip here).
+TEST(CalibRoom, OverlayBendsTheBoxWithTheEstimatedK1) {
+    const Camera cam = roomCamera(500, -28, -12, 1.5, 1.55);
+    Scene scene;
+    scene.camera = cam;
+    scene.image_size = kSize;
+    scene.has_room = true;
+    scene.room = trueRoom();
+    FrameCalibration fc;
+    fc.image_size = kSize;
+    fc.K = cam.K;
+    fc.R = cam.R;
+    const Mat black(kSize, CV_8UC3, Scalar::all(0));
+    Mat pinhole, bent;
+    drawCalibrationOverlay(black, pinhole, scene, fc);
+    fc.k1 = -0.15;  // barrel, as in the distorted calib_rooms renders
+    drawCalibrationOverlay(black, bent, scene, fc);
+    const double f = cam.K(0, 0);
+    const Point2d c(cam.K(0, 2), cam.K(1, 2));
+    auto white = [](const Mat& m, const Point2d& p) {
+        int best = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+                const Vec3b v = m.at<Vec3b>(cvRound(p.y) + dy, cvRound(p.x) + dx);
+                best = std::max(best, (int)std::min({v[0], v[1], v[2]}));
+            }
+        return best > 150;
+    };
+    const Rect inner(5, 40, kSize.width - 10, kSize.height - 45);  // clear of the caption
+    int checked = 0;
+    const Vec3d a = scene.room.min, b = scene.room.max;
+    for (int e = 0; e < 12; ++e) {
+        const int axis = e / 4, k = e % 4, u = (axis + 1) % 3, v = (axis + 2) % 3;
+        Vec3d p, q;
+        p[u] = q[u] = (k & 1) ? b[u] : a[u];
+        p[v] = q[v] = (k & 2) ? b[v] : a[v];
+        p[axis] = a[axis];
+        q[axis] = b[axis];
+        Point2d pa, pb;
+        if (!projectSegment(cam, p, q, pa, pb, 0.02)) continue;
+        for (double t = 0; t <= 1; t += 1.0 / 4000) {
+            const Point2d m = pa + (pb - pa) * t, md = distortPointK1(m, f, c, fc.k1);
+            // How far the lens moves the point off the straight edge.
+            const Point2d d = pb - pa, w = md - pa;
+            const double off = std::abs(d.x * w.y - d.y * w.x) / norm(d);
+            if (!inner.contains(Point(cvRound(m.x), cvRound(m.y))) ||
+                !inner.contains(Point(cvRound(md.x), cvRound(md.y))) || off < 6)
+                continue;
+            EXPECT_LT(norm(undistortPointK1(md, f, c, fc.k1) - m), 1e-3);
+            ++checked;
+            EXPECT_TRUE(white(bent, md)) << "edge " << e << " at " << md;
+            EXPECT_FALSE(white(pinhole, md)) << "edge " << e << " at " << md;
+            EXPECT_TRUE(white(pinhole, m)) << "edge " << e << " at " << m;
+            EXPECT_FALSE(white(bent, m)) << "edge " << e << " at " << m;
+        }
+    }
+    if (const char* dump = std::getenv("VBME_TEST_DUMP")) {
+        Mat both;
+        hconcat(pinhole, bent, both);
+        imwrite(std::string(dump) + "/overlay_k1.png", both);
+    }
+    std::printf("box edge points checked: %d\n", checked);
+    EXPECT_GE(checked, 50);
 }

@@ -60,6 +60,50 @@ Point toFixed(const Point2d& p) {
 
 }  // namespace
 
+/** The straight image polyline @p pts (closed when @p closed) as the lens with radial
+coefficient @p k1 shows it in an image of @p size: each edge cut into pieces of at most 8 px,
+every point distorted (distortPointK1). Points beyond the image's corners (undistorted radius
+over 1.2 × theirs) or where the model folds back (barrel: r² ≥ 1 / (3 |k1|)) are dropped,
+which splits the polyline into runs. A single unchanged run for k1 = 0. */
+static std::vector<std::vector<Point>> bent(const std::vector<Point2d>& pts, bool closed,
+                                            const Camera& cam, double k1, Size size) {
+    std::vector<std::vector<Point>> runs(1);
+    const Point2d c(cam.K(0, 2), cam.K(1, 2));
+    const double f = cam.K(0, 0);
+    const size_t n = pts.size();
+    if (n == 0) return {};
+    if (k1 == 0) {
+        for (const auto& p : pts)
+            runs[0].push_back(toFixed(p));
+        if (closed) runs[0].push_back(runs[0].front());
+        return runs;
+    }
+    double r_corner = 0;
+    for (const Point2d q : {Point2d(0, 0), Point2d(size.width - 1, 0), Point2d(0, size.height - 1),
+                            Point2d(size.width - 1, size.height - 1)})
+        r_corner = std::max(r_corner, norm(undistortPointK1(q, f, c, k1) - c) / f);
+    double r_lim = 1.2 * r_corner;
+    if (k1 < 0) r_lim = std::min(r_lim, 0.99 / std::sqrt(3 * -k1));
+    auto add = [&](const Point2d& p) {
+        if (norm(p - c) / f < r_lim)
+            runs.back().push_back(toFixed(distortPointK1(p, f, c, k1)));
+        else if (!runs.back().empty())
+            runs.emplace_back();
+    };
+    const size_t ne = closed ? n : n - 1;
+    for (size_t i = 0; i < ne; ++i) {
+        const Point2d a = pts[i], b = pts[(i + 1) % n];
+        const int steps = std::max(1, (int)std::ceil(norm(b - a) / 8.0));
+        for (int k = 0; k < steps; ++k)
+            add(a + (b - a) * (double(k) / steps));
+    }
+    add(closed ? pts[0] : pts.back());
+    std::vector<std::vector<Point>> out;
+    for (auto& r : runs)
+        if (r.size() >= 2) out.push_back(std::move(r));
+    return out;
+}
+
 void drawCalibrationOverlay(InputArray image, OutputArray overlay_, const Scene& scene,
                             const FrameCalibration& fc) {
     Mat src = image.getMat();
@@ -81,9 +125,11 @@ void drawCalibrationOverlay(InputArray image, OutputArray overlay_, const Scene&
             if (l.type != Light::POLYGON) continue;
             std::vector<Point2d> px = projectPolygon(cam, l.corners, 0.02);
             if (px.size() < 3) continue;
+            const auto runs = bent(px, true, cam, fc.k1, out.size());
+            if (runs.empty()) continue;
             std::vector<Point> fx;
-            for (const auto& p : px)
-                fx.push_back(toFixed(p));
+            for (const auto& r : runs)
+                fx.insert(fx.end(), r.begin(), r.end());
             fillPoly(layer, std::vector<std::vector<Point>>{fx}, Scalar(0, 230, 255), LINE_AA,
                      kShift);
             polylines(out, std::vector<std::vector<Point>>{fx}, true, Scalar(0, 200, 255), thick,
@@ -112,8 +158,8 @@ void drawCalibrationOverlay(InputArray image, OutputArray overlay_, const Scene&
             q[axis] = b[axis];
             Point2d pa, pb;
             if (projectSegment(cam, p, q, pa, pb, 0.02))
-                line(out, toFixed(pa), toFixed(pb), Scalar(255, 255, 255), thick + 1, LINE_AA,
-                     kShift);
+                polylines(out, bent({pa, pb}, false, cam, fc.k1, out.size()), false,
+                          Scalar(255, 255, 255), thick + 1, LINE_AA, kShift);
         }
     }
     // Horizon: image of the plane's line at infinity, l = K^-T R e_z.
@@ -121,9 +167,13 @@ void drawCalibrationOverlay(InputArray image, OutputArray overlay_, const Scene&
         const Vec3d z(cam.R(0, 2), cam.R(1, 2), cam.R(2, 2));
         const Vec3d l = cam.K.inv().t() * z;
         if (std::abs(l[1]) > 1e-12 * std::abs(l[0])) {
-            const double y0 = -(l[2]) / l[1], y1 = -(l[2] + l[0] * (out.cols - 1)) / l[1];
-            line(out, toFixed(Point2d(0, y0)), toFixed(Point2d(out.cols - 1, y1)),
-                 Scalar(255, 0, 255), thick, LINE_AA, kShift);
+            // Across the image, or with distortion across the wider undistorted view (bent()
+            // keeps the part that is seen).
+            const double x0 = fc.k1 == 0 ? 0 : -out.cols,
+                         x1 = fc.k1 == 0 ? out.cols - 1 : 2 * out.cols;
+            const double y0 = -(l[2] + l[0] * x0) / l[1], y1 = -(l[2] + l[0] * x1) / l[1];
+            polylines(out, bent({Point2d(x0, y0), Point2d(x1, y1)}, false, cam, fc.k1, out.size()),
+                      false, Scalar(255, 0, 255), thick, LINE_AA, kShift);
         }
     }
     // Vanishing points (when within three image sizes) with rays to the image centre.
@@ -141,8 +191,9 @@ void drawCalibrationOverlay(InputArray image, OutputArray overlay_, const Scene&
                 FONT_HERSHEY_SIMPLEX, 0.5 * thick, axis_col[a], thick, LINE_AA);
     }
     const double fov = 2 * std::atan2(out.cols * 0.5, cam.K(0, 0)) * 180 / CV_PI;
-    const std::string caption = format("f = %.1f px (hfov %.1f deg), confidence %.2f, rms %.2f px",
-                                       cam.K(0, 0), fov, fc.confidence, fc.rms_px);
+    std::string caption = format("f = %.1f px (hfov %.1f deg), confidence %.2f, rms %.2f px",
+                                 cam.K(0, 0), fov, fc.confidence, fc.rms_px);
+    if (fc.k1 != 0) caption += format(", k1 %.4f", fc.k1);
     putText(out, caption, Point(10, 20), FONT_HERSHEY_SIMPLEX, 0.5 * thick, Scalar(0, 0, 0),
             3 * thick, LINE_AA);
     putText(out, caption, Point(10, 20), FONT_HERSHEY_SIMPLEX, 0.5 * thick, Scalar(255, 255, 255),

@@ -433,6 +433,13 @@ Point2d undistortPointK1(const Point2d& p, double f, const Point2d& c, double k1
     return Point2d(c.x + f * xu, c.y + f * yu);
 }
 
+Point2d distortPointK1(const Point2d& p, double f, const Point2d& c, double k1) {
+    if (!(f > 0)) CV_Error(Error::StsBadArg, "distortPointK1: expected a positive focal length");
+    const double x = (p.x - c.x) / f, y = (p.y - c.y) / f;
+    const double s = 1 + k1 * (x * x + y * y);
+    return Point2d(c.x + f * x * s, c.y + f * y * s);
+}
+
 std::vector<ManhattanProposal> detectManhattanProposals(
     InputArray image, const VanishingPointCalibrator::Params& params, int max_proposals) {
     VanishingPointCalibrator::Params p = params;

@@ -221,6 +221,10 @@ CV_EXPORTS std::vector<ManhattanProposal> detectManhattanProposals(
 `p_d = c + f x (1 + k1 |x|²)`, x = (p − c) / f), by fixed-point iteration. */
 CV_EXPORTS Point2d undistortPointK1(const Point2d& p, double f, const Point2d& c, double k1);
 
+/** @brief Applies one-coefficient radial distortion to a pixel point of the undistorted image:
+`p_d = c + f x (1 + k1 |x|²)`, x = (p − c) / f (inverse of undistortPointK1). */
+CV_EXPORTS Point2d distortPointK1(const Point2d& p, double f, const Point2d& c, double k1);
+
 /** @brief Places a camera whose K and R are known @p height metres above the world origin on
 the floor: centre (0, 0, height), t = −R·centre. Throws for a non-positive height. */
 CV_EXPORTS void placeCamera(Camera& camera, double height);
@@ -345,7 +349,10 @@ CV_EXPORTS Scene calibrateFrame(InputArray image, const FrameAnnotation& annotat
 
 /** @brief Draws the calibration over the frame for checking at a glance: segments coloured
 by world axis (x red, y green, z blue), vanishing points and horizon, the room box wireframe,
-the light polygons and a caption with the focal length.
+the light polygons and a caption with the focal length. With a radial distortion coefficient
+(`fc.k1` ≠ 0, from `estimate_distortion`) the box, the horizon and the light polygons are
+drawn as that lens shows them (distortPointK1), so they line up with the distorted frame; the
+segments are drawn as detected.
 @param image 8-bit BGR frame.
 @param overlay output, 8-bit BGR of the same size. */
 CV_EXPORTS void drawCalibrationOverlay(InputArray image, OutputArray overlay, const Scene& scene,
