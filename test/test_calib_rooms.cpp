@@ -3,7 +3,9 @@
 // scripts/blender/calib_rooms.py; test/data/calib_rooms/truth.csv holds each image's focal
 // length, rotation and radial distortion): focal-length error percentiles and vanishing-
 // direction accuracy AA@3/5/10 of the GLOBAL search, against the previous RANSAC search on the
-// same images; plumb-line distortion k1 on the distorted renders.
+// same images; the same with a focal prior as EXIF would give it; whether the confidence and
+// the "ambiguous" flag tell right answers from wrong ones; plumb-line distortion k1 on the
+// distorted renders. VBME_CALIB_ROOMS_DUMP=dir writes an annotated overlay per image.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -306,9 +308,10 @@ const Results& results() {
     return r;
 }
 
-// The aims (median focal error ≤ 2 %, AA@3/5/10 ≥ 70/88/96) are printed, not asserted:
-// on these renders the GLOBAL search does not reach them yet (see doc/vbme_calib.md). What is
-// asserted is that it beats the previous RANSAC search on every figure, on the same images.
+// The aims (median focal error ≤ 2 %, AA@3/5/10 ≥ 70/88/96) are printed; the median
+// aim is asserted (measured 1.61 %), the AA aims are not reached at 5° and 10° on these renders
+// (see doc/vbme_calib.md). Also asserted: the GLOBAL search beats the previous RANSAC search on
+// every figure, on the same images.
 TEST(CalibRooms, GlobalSearchBeatsRansacOnRenderedRooms) {
     const Results& r = results();
     ASSERT_GE(r.plain.size(), 20u) << "test/data/calib_rooms/truth.csv missing or short";
@@ -318,6 +321,7 @@ TEST(CalibRooms, GlobalSearchBeatsRansacOnRenderedRooms) {
     std::printf("aims: median focal error <= 2 %% (%s), AA@3/5/10 >= 70/88/96 (%s)\n",
                 g.p50 <= 2 ? "met" : "NOT met",
                 g.aa3 >= 70 && g.aa5 >= 88 && g.aa10 >= 96 ? "met" : "NOT met");
+    EXPECT_LE(g.p50, 2.0);
     EXPECT_LT(g.p50, o.p50);
     EXPECT_LT(g.p75, o.p75);
     EXPECT_LT(g.p90, o.p90);
