@@ -300,6 +300,33 @@ TEST(AppAnnotate, SaveWritesTheAnnotationFormatAndTheScene) {
     EXPECT_EQ((int)fi["annotation"]["lines"][0]["segments"].size(), 2);
 }
 
+// The suggestions carry the ranked Manhattan-frame proposals (best first, with confidence,
+// ambiguity and per-segment axes); the first is the frame of the top-level segments and focal.
+TEST(AppAnnotate, SuggestionsCarryRankedProposals) {
+    const Api api;
+    const AnnotateReply r = api.call("GET", "api/suggestions?i=0");
+    ASSERT_EQ(r.status, 200) << r.body;
+    FileStorage fs = Api::parse(r);
+    const FileNode segs = fs["segments"], props = fs["proposals"];
+    ASSERT_TRUE(props.isSeq()) << r.body;
+    ASSERT_GE(props.size(), 1u);
+    const double f0 = (double)props[0]["focal"];
+    EXPECT_DOUBLE_EQ(f0, (double)fs["focal"]);
+    EXPECT_LT(std::abs(f0 / api.cam.K(0, 0) - 1), 0.02) << f0;
+    EXPECT_GT((double)props[0]["focal_rel_sigma"], 0.0);
+    double prev = 2;
+    for (const auto& p : props) {
+        const double c = (double)p["confidence"];
+        EXPECT_LE(c, prev);
+        prev = c;
+        ASSERT_EQ(p["axes"].size(), segs.size());
+    }
+    for (size_t i = 0; i < segs.size(); ++i)
+        EXPECT_EQ((int)props[0]["axes"][(int)i], (int)segs[(int)i]["axis"]);
+    std::printf("suggestions: %d proposals, first focal %.1f px (truth %.1f), confidence %.2f\n",
+                (int)props.size(), f0, api.cam.K(0, 0), (double)props[0]["confidence"]);
+}
+
 TEST(AppAnnotate, BadRequestsGet4xxWithAMessage) {
     Api api;
     auto expect = [&](const AnnotateReply& r, int status, const std::string& words) {

@@ -409,13 +409,28 @@ AnnotateReply AnnotateSession::suggestions(const AnnotateRequest& r) const {
     auto cal = VanishingPointCalibrator::create();
     json j{{"segments", json::array()}, {"warnings", json::array()}};
     try {
-        const FrameCalibration fc = cal->detect(f);
+        // Ranked Manhattan frames; the first is what detect() returns (and is refused below
+        // the same confidence).
+        const auto props = detectManhattanProposals(f, cal->params(), 3);
+        const FrameCalibration& fc = props[0].calibration;
+        if (fc.confidence < cal->params().min_confidence)
+            CV_Error(cv::Error::StsError,
+                     cv::format("automatic detection is not confident (%.2f < %.2f)", fc.confidence,
+                                cal->params().min_confidence));
         for (size_t i = 0; i < fc.segments.size(); ++i) {
             const cv::Vec4f& s = fc.segments[i];
             j["segments"].push_back({{"s", {s[0], s[1], s[2], s[3]}}, {"axis", fc.labels[i]}});
         }
         j["focal"] = fc.focal();
         j["confidence"] = fc.confidence;
+        j["proposals"] = json::array();
+        for (const auto& p : props)
+            j["proposals"].push_back({{"focal", p.calibration.focal()},
+                                      {"focal_rel_sigma", p.calibration.focal_rel_sigma},
+                                      {"confidence", p.confidence},
+                                      {"ambiguous", p.ambiguous},
+                                      {"note", p.note},
+                                      {"axes", p.calibration.labels}});
     } catch (const cv::Exception& e) {
         std::vector<cv::Vec4f> segs;
         cal->detectSegments(f, segs);
