@@ -82,7 +82,8 @@ struct CV_EXPORTS FrameCalibration {
     Vec3d vanishing_points[3];
     int support[3] = {0, 0, 0};  //!< segments supporting each world axis
     /** @brief In [0, 1]: share of the segments' length explained by the three directions,
-    reduced when the second-best direction has few segments (1 for user-given lines). */
+    reduced when the second-best direction has few segments and (automatic detection) divided
+    by `1 + (focal_rel_sigma / 0.04)²` (1 for user-given lines). */
     double confidence = 0;
     double rms_px = 0;  //!< RMS distance of segment endpoints to their VP lines
     /** @brief Relative standard deviation of the focal length (automatic detection: from the
@@ -194,22 +195,26 @@ struct CV_EXPORTS ManhattanProposal {
     three vanishing points (in [0, 1]). */
     double score = 0;
     /** @brief In [0, 1]: the frame's own quality (calibration.confidence) times its share of
-    the proposals' (sharpened) scores; low when another frame scores close. */
+    the frames' `calibration.confidence × (score / best score)⁸`; low when another frame scores
+    close. Proposals are ranked by that product. */
     double confidence = 0;
-    /** @brief Whether another proposal scores within 10 % of this one (then both are kept and
-    the user should choose). */
+    /** @brief Set on the first proposal and on every other reaching at least half its
+    `calibration.confidence × (score / best score)⁸`, when there is such a second one: two
+    frames are plausible and the user should choose. */
     bool ambiguous = false;
     std::string note;  //!< human-readable reason for the confidence ("", or why it is low)
 };
 
 /** @brief Ranked Manhattan-frame proposals for the image, best first.
 
-Line segments (LSD @cite vonGioi2012, collinear pieces merged, short ones dropped) vote for
+Line segments (LSD @cite vonGioi2012 after a 3×3 median, at three scales, collinear pieces
+merged, each line refitted on the full-resolution gradient, short ones dropped) vote for
 vanishing-point candidates (intersections of pairs of the longest segments, scored by a
 robust truncated-quadratic angular consensus @cite Torr2000); every pair of candidates gives a frame
 whose focal length follows from orthogonality with the principal point at the centre @cite
 Caprile1990; all pairs are scored, distinct frames are refined jointly (focal, rotation, optionally
-k1) with a Cauchy loss (Ceres) and ranked. The first proposal is what detect() returns.
+k1) with a Cauchy loss (Ceres), their focal length's uncertainty taken from the refinement's
+covariance, and ranked by confidence × consensus. The first proposal is what detect() returns.
 @param image 8-bit gray or BGR.
 @param params settings (method must be GLOBAL).
 @param max_proposals the most proposals returned (≥ 1).
