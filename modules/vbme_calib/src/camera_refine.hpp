@@ -46,6 +46,36 @@ RefineSummary refineTrack(const ColmapModel& model, const std::vector<std::strin
                           double plane_tolerance, double smooth_sigma, CameraPath& path,
                           std::map<long long, Vec3d>* world_points = nullptr);
 
+/** A corner followed through consecutive frames: the frames it was seen in (increasing) and its
+position in each (vbme pixel convention). */
+struct CornerTrack {
+    std::vector<int> frames;
+    std::vector<Point2f> px;
+};
+
+/** What refineAllFrames() did. */
+struct GlobalRefineSummary {
+    double rms = 0;               // inlier reprojection RMS at the end (pixels)
+    int points = 0;               // tracks triangulated and adjusted
+    int observations = 0;         // inlier observations at the end
+    int total_observations = 0;   // observations of the triangulated tracks before rejection
+    double worst_frame_rms = 0;   // worst per-frame inlier RMS (pixels)
+    int plane_points = 0;         // points tied to a face of the room box
+    double on_face_fraction = 0;  // points within plane_tolerance of a face at the end
+};
+
+/** Joint bundle adjustment of every frame with @p posed set (intrinsics fixed, frame 0 held when
+posed) with points triangulated from @p tracks at the current poses of @p path: by the linear
+(DLT) method where the rays of a track subtend at least 1 degree, else on the room box along the
+ray of its first observation; a track whose median reprojection error at the start exceeds 3 px
+is left out. Reprojection residuals have a Huber loss (1 px); points within @p plane_tolerance of
+a face of the room box are tied to it (σ = 1 cm) as in refineTrack(). Observations farther than
+2 px from their projection after a solve are removed and the problem solved again (twice).
+Writes the adjusted poses of the posed frames back into @p path. */
+GlobalRefineSummary refineAllFrames(const std::vector<CornerTrack>& tracks, const Scene& frame0,
+                                    double plane_tolerance, const std::vector<bool>& posed,
+                                    CameraPath& path);
+
 /** Gives every frame without @p have a pose interpolated between the nearest frames with
 one (slerp of rotations, linear centres), or held at the nearest one beyond the ends, marked
 CameraPath::INTERPOLATED. @return how many frames were interpolated. */

@@ -61,17 +61,21 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
-std::vector<int> selectKeyframes(InputArrayOfArrays gray_, const KeyframeOptions& o) {
-    std::vector<Mat> gray;
-    gray_.getMatVector(gray);
+namespace {
+
+// selectKeyframes(), also returning every corner track it followed (when @p tracks is given;
+// then the corners are tracked even with a fixed stride).
+std::vector<int> selectKeyframesAndTracks(const std::vector<Mat>& gray, const KeyframeOptions& o,
+                                          std::vector<detail::CornerTrack>* tracks) {
     const int n = (int)gray.size();
     std::vector<int> keys;
     if (n == 0) return keys;
     if (o.stride > 0) {
         for (int i = 0; i < n; i += o.stride)
             keys.push_back(i);
-        return keys;
+        if (!tracks) return keys;
     }
+    const bool choose = o.stride <= 0;
     CV_Assert(o.features > 0 && o.max_gap >= 1);
     for (const Mat& g : gray)
         CV_Assert(g.type() == CV_8UC1 && g.size() == gray[0].size());
@@ -79,7 +83,8 @@ std::vector<int> selectKeyframes(InputArrayOfArrays gray_, const KeyframeOptions
     const int min_dist = std::max(5, gray[0].cols / 64);
     std::vector<Point2f> pts, at_key;  // current positions; positions at the last keyframe
     std::vector<uchar> from_key;       // tracked since the last keyframe
-    auto replenish = [&](const Mat& g) {
+    std::vector<int> id;               // index into *tracks
+    auto replenish = [&](const Mat& g, int frame) {
         if ((int)pts.size() >= o.features * 8 / 10) return;
         Mat mask(g.size(), CV_8U, Scalar(255));
         for (const Point2f& p : pts)
@@ -90,14 +95,19 @@ std::vector<int> selectKeyframes(InputArrayOfArrays gray_, const KeyframeOptions
             pts.push_back(p);
             at_key.push_back(p);
             from_key.push_back(0);
+            if (tracks) {
+                id.push_back((int)tracks->size());
+                tracks->push_back({{frame}, {p}});
+            }
         }
     };
+    std::vector<int> chosen;
     auto makeKey = [&](int i) {
-        keys.push_back(i);
+        chosen.push_back(i);
         at_key = pts;
         from_key.assign(pts.size(), 1);
     };
-    replenish(gray[0]);
+    replenish(gray[0], 0);
     makeKey(0);
     int key_count = (int)pts.size();
     for (int i = 1; i < n; ++i) {
@@ -106,23 +116,40 @@ std::vector<int> selectKeyframes(InputArrayOfArrays gray_, const KeyframeOptions
         trackLK(gray[i - 1], gray[i], pts, next, ok);
         size_t m = 0;
         for (size_t k = 0; k < pts.size(); ++k)
-            if (ok[k]) pts[m] = next[k], at_key[m] = at_key[k], from_key[m] = from_key[k], ++m;
+            if (ok[k]) {
+                pts[m] = next[k], at_key[m] = at_key[k], from_key[m] = from_key[k];
+                if (tracks) {
+                    id[m] = id[k];
+                    (*tracks)[id[m]].frames.push_back(i);
+                    (*tracks)[id[m]].px.push_back(next[k]);
+                }
+                ++m;
+            }
         pts.resize(m);
         at_key.resize(m);
         from_key.resize(m);
+        if (tracks) id.resize(m);
         std::vector<double> motion;
         for (size_t k = 0; k < m; ++k)
             if (from_key[k]) motion.push_back(norm(pts[k] - at_key[k]));
-        const bool key = i == n - 1 || i - keys.back() >= o.max_gap ||
+        const bool key = i == n - 1 || i - chosen.back() >= o.max_gap ||
                          (double)motion.size() < o.min_overlap * key_count ||
                          median(motion) > max_motion;
-        replenish(gray[i]);
+        replenish(gray[i], i);
         if (key) {
             makeKey(i);
             key_count = (int)pts.size();
         }
     }
-    return keys;
+    return choose ? chosen : keys;
+}
+
+}  // namespace
+
+std::vector<int> selectKeyframes(InputArrayOfArrays gray_, const KeyframeOptions& o) {
+    std::vector<Mat> gray;
+    gray_.getMatVector(gray);
+    return selectKeyframesAndTracks(gray, o, nullptr);
 }
 
 namespace {
@@ -199,6 +226,9 @@ PnPResult solvePose(const std::vector<Point3f>& X, const std::vector<Point2f>& x
     return r;
 }
 
+// Largest change of a frame's pose by the joint adjustment that is accepted (metres, radians).
+const double kMaxAdjustMove = 0.25, kMaxAdjustTurn = 5 * CV_PI / 180;
+
 std::string frameName(int i) {
     return format("frame_%05d.png", i);
 }
@@ -225,7 +255,9 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
 
     // 1. Keyframes.
     ScopedTimer t_keys = stageTimer(rep, "keyframes");
-    std::vector<int> keys = selectKeyframes(gray, ko);
+    std::vector<detail::CornerTrack> tracks;
+    std::vector<int> keys =
+        selectKeyframesAndTracks(gray, ko, opt.global_refine ? &tracks : nullptr);
     t_keys.stop();
 
     // 2. COLMAP on the keyframes (resumable: the same keyframes with a finished run are reused).
@@ -245,8 +277,12 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
         const bool can_retry = attempt < 2 && (int)keys.size() < n;
         try {
             std::ostringstream key_list;
+            // the intrinsics too: COLMAP's model is made with them
+            const Matx33d& K = frame0.camera.K;
             key_list << ko.sift_features << " " << ko.overlap << " " << opt.colmap.random_seed
-                     << " " << opt.colmap.vocab_tree << ":";
+                     << " " << opt.colmap.vocab_tree << " "
+                     << format("%.10g %.10g %.10g %.10g", K(0, 0), K(1, 1), K(0, 2), K(1, 2))
+                     << ":";
             for (int k : keys)
                 key_list << " " << k;
             const fs::path done = work / "colmap_complete.txt";
@@ -375,9 +411,39 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
             have[i] = true;
         }
     }
+    t_pnp.stop();
+    // 5. Every registered frame (SfM and PnP) adjusted jointly with points triangulated from the
+    // corner tracks through the whole video.
+    if (opt.global_refine) {
+        ScopedTimer t_ba = stageTimer(rep, "joint adjustment");
+        const CameraPath before = path;
+        const detail::GlobalRefineSummary g =
+            detail::refineAllFrames(tracks, frame0, opt.plane_tolerance, have, path);
+        // An adjustment that moved a frame far from its SfM/PnP pose has come apart (e.g. a
+        // video whose corner tracks do not link all frames): its poses are not used.
+        double moved = 0, turned = 0;
+        for (int i = 0; i < n; ++i) {
+            if (!have[i]) continue;
+            moved = std::max(moved, norm(path.camera(i).center() - before.camera(i).center()));
+            const Matx33d d = path.frames[i].R * before.frames[i].R.t();
+            turned = std::max(turned, std::acos(std::max(-1.0, std::min(1.0, (trace(d) - 1) / 2))));
+        }
+        rep.ba_applied = g.points > 0 && moved <= kMaxAdjustMove && turned <= kMaxAdjustTurn;
+        if (!rep.ba_applied) {
+            path = before;
+            std::printf(
+                "camera tracking: the joint adjustment moved a frame by %.3f m / %.2f deg; "
+                "keeping the SfM and PnP poses\n",
+                moved, turned * 180 / CV_PI);
+        }
+        rep.ba_rms = g.rms;
+        rep.ba_points = g.points;
+        rep.ba_observations = g.observations;
+        rep.ba_worst_frame_rms = g.worst_frame_rms;
+        rep.ba_on_face = g.on_face_fraction;
+    }
     // Frames PnP could not hold: interpolated between the nearest registered ones (SfM or PnP).
     const int interpolated = detail::interpolateMissing(path, have);
-    t_pnp.stop();
     rep.pnp = pnp;
     rep.interpolated = interpolated;
     rep.pnp_rms = inliers > 0 ? std::sqrt(se / inliers) : 0;

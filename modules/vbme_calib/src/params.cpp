@@ -108,6 +108,7 @@ void CameraTrackingOptions::read(const FileNode& fn) {
     in("pnp", pnp);
     in("pnp_min_inliers", pnp_min_inliers);
     in("pnp_max_rms", pnp_max_rms);
+    in("global_refine", global_refine);
     in("robust_scale", robust_scale);
     in("scale_tolerance", scale_tolerance);
     in("stride", stride);
@@ -123,9 +124,9 @@ void CameraTrackingOptions::write(FileStorage& fs) const {
     fs << "method" << (method == FULL ? "full" : "keyframes");
     writeMap(fs, "keyframes", keyframes);
     fs << "pnp" << (int)pnp << "pnp_min_inliers" << pnp_min_inliers << "pnp_max_rms" << pnp_max_rms
-       << "robust_scale" << (int)robust_scale << "scale_tolerance" << scale_tolerance << "stride"
-       << stride << "refine" << (int)refine << "plane_tolerance" << plane_tolerance
-       << "smooth_sigma" << smooth_sigma;
+       << "global_refine" << (int)global_refine << "robust_scale" << (int)robust_scale
+       << "scale_tolerance" << scale_tolerance << "stride" << stride << "refine" << (int)refine
+       << "plane_tolerance" << plane_tolerance << "smooth_sigma" << smooth_sigma;
     writeMap(fs, "colmap", colmap);
 }
 
