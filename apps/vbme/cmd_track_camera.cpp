@@ -21,7 +21,7 @@ struct TrackCameraOptions {
         colmap_timeout = 0;
     double keyframe_motion = 0.08, min_overlap = 0.6;
     std::string method = "keyframes";
-    bool mean_scale = false, no_refine = false, no_pnp = false;
+    bool mean_scale = false, no_refine = false, no_pnp = false, no_joint = false;
     double smooth = 0;
     std::string blender;
     std::string vocab_tree;
@@ -75,6 +75,7 @@ void runTrackCamera(const TrackCameraOptions& o) {
     opt.keyframes.max_motion = o.keyframe_motion;
     opt.keyframes.min_overlap = o.min_overlap;
     opt.pnp = !o.no_pnp;
+    opt.global_refine = !o.no_joint;
     opt.colmap.random_seed = o.seed;
     opt.colmap.vocab_tree = o.vocab_tree;
     CameraTrackingReport r;
@@ -124,12 +125,15 @@ void runTrackCamera(const TrackCameraOptions& o) {
             fs << "method" << o.method << "frames" << r.frames << "keyframes" << r.keyframes
                << "registered" << r.registered << "pnp" << r.pnp << "interpolated" << r.interpolated
                << "pnp_rms_px" << r.pnp_rms << "pnp_mean_inliers" << r.pnp_inliers
-               << "colmap_models" << r.models << "reprojection_rms_px" << r.reprojection_rms
-               << "refined_reprojection_rms_px" << r.refined_rms << "points_on_box_faces"
-               << r.plane_points << "scale_m_per_unit" << r.scale.scale << "scale_relative_spread"
-               << r.scale.spread << "scale_points_used" << r.scale.used << "scale_points_total"
-               << r.scale.total << "seconds" << r.seconds << "seconds_per_frame"
-               << (r.frames ? r.seconds / r.frames : 0.0);
+               << "joint_adjustment_applied" << (int)r.ba_applied << "joint_rms_px" << r.ba_rms
+               << "joint_worst_frame_rms_px" << r.ba_worst_frame_rms << "joint_points"
+               << r.ba_points << "joint_observations" << r.ba_observations
+               << "joint_points_on_box_faces" << r.ba_on_face << "colmap_models" << r.models
+               << "reprojection_rms_px" << r.reprojection_rms << "refined_reprojection_rms_px"
+               << r.refined_rms << "points_on_box_faces" << r.plane_points << "scale_m_per_unit"
+               << r.scale.scale << "scale_relative_spread" << r.scale.spread << "scale_points_used"
+               << r.scale.used << "scale_points_total" << r.scale.total << "seconds" << r.seconds
+               << "seconds_per_frame" << (r.frames ? r.seconds / r.frames : 0.0);
             fs << "stage_seconds"
                << "{";
             for (const auto& st : r.stage_seconds) {
@@ -153,13 +157,16 @@ void runTrackCamera(const TrackCameraOptions& o) {
     std::printf(
         "camera path of %d frames: %d from SfM, %d by PnP (inlier RMS %.3f px, %.0f inliers per "
         "frame), %d interpolated (%d COLMAP model(s))\n"
+        "joint adjustment%s: %d points, %d observations, RMS %.3f px (worst frame %.3f px), "
+        "%.0f %% of the points on the box's faces\n"
         "reprojection RMS %.3f px (%.3f px after refinement, %d points tied to the box)\n"
         "scale %.5f m per SfM unit from %d of %d frame-0 points (relative spread %.4f)\n"
         "%.1f s (%.2f s/frame); written: %s, %s, COLMAP text model %s\n",
         r.frames, r.registered, r.pnp, r.pnp_rms, r.pnp_inliers, r.interpolated, r.models,
-        r.reprojection_rms, r.refined_rms, r.plane_points, r.scale.scale, r.scale.used,
-        r.scale.total, r.scale.spread, r.seconds, r.frames ? r.seconds / r.frames : 0.0,
-        o.out.c_str(), report.c_str(), colmap_dir.c_str());
+        r.ba_applied ? "" : " (not applied)", r.ba_points, r.ba_observations, r.ba_rms,
+        r.ba_worst_frame_rms, 100 * r.ba_on_face, r.reprojection_rms, r.refined_rms, r.plane_points,
+        r.scale.scale, r.scale.used, r.scale.total, r.scale.spread, r.seconds,
+        r.frames ? r.seconds / r.frames : 0.0, o.out.c_str(), report.c_str(), colmap_dir.c_str());
 }
 
 void setupTrackCamera(CLI::App& app) {
@@ -220,6 +227,8 @@ void setupTrackCamera(CLI::App& app) {
         ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
     app.add_flag("--no-pnp", o->no_pnp, "keyframes: interpolate the other frames instead of PnP");
+    app.add_flag("--no-joint", o->no_joint,
+                 "keyframes: skip the joint adjustment of all frames with corner tracks");
     app.add_option("--seed", o->seed, "COLMAP random seed")->capture_default_str();
     app.add_option("--vocab-tree", o->vocab_tree, "Vocabulary-tree file: enables loop detection");
     app.add_option("--smooth", o->smooth,

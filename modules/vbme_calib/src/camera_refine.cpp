@@ -11,6 +11,8 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include <sys/resource.h>
+
 namespace cv {
 namespace vbme {
 namespace detail {
@@ -74,6 +76,17 @@ struct Smooth {
 };
 
 }  // namespace
+
+double processCpuSeconds() {
+    double s = 0;
+    for (int who : {RUSAGE_SELF, RUSAGE_CHILDREN}) {
+        rusage u{};
+        getrusage(who, &u);
+        s += u.ru_utime.tv_sec + u.ru_stime.tv_sec +
+             1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+    }
+    return s;
+}
 
 RefineSummary refineTrack(const ColmapModel& model, const std::vector<std::string>& names,
                           const Scene& frame0, const Matx33d& M, const Vec3d& c, double s,

@@ -27,6 +27,9 @@ inline void writeMarker(const std::string& path, const std::string& line) {
     out.commit();
 }
 
+/** CPU seconds (user + system) of this process (all threads) and its finished children. */
+double processCpuSeconds();
+
 /** What refineTrack() did. */
 struct RefineSummary {
     double rms_before = 0, rms_after = 0;  // reprojection RMS (pixels) over all observations

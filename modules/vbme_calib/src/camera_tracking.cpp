@@ -277,6 +277,7 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
                             CameraTrackingReport* report) {
     if (opt.stride < 1) CV_Error(Error::StsBadArg, "stride must be at least 1");
     const ScopedTimer total;
+    const double cpu0 = detail::processCpuSeconds();
     if (opt.method == CameraTrackingOptions::KEYFRAMES) {
         // Grey frames in memory (COLMAP's SIFT sees grey images too).
         VideoReader reader(video);
@@ -299,10 +300,11 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
             progress.finish();
         }
         if (gray.empty()) CV_Error(Error::StsError, "'" + video + "' holds no frame");
-        const double decode = total.seconds();
+        const double decode = total.seconds(), decode_cpu = detail::processCpuSeconds() - cpu0;
         CameraTrackingReport r;
         CameraPath path = trackCameraKeyframes(gray, frame0, work_dir, opt, &r);
         r.stage_seconds.insert(r.stage_seconds.begin(), {"decode", decode});
+        r.stage_cpu_seconds.insert(r.stage_cpu_seconds.begin(), {"decode", decode_cpu});
         r.seconds += decode;
         if (report) *report = r;
         return path;
@@ -339,6 +341,10 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
         detail::writeMarker(marker.string(), format("%zu %d", names.size(), opt.stride));
     }
     if (names.empty()) CV_Error(Error::StsError, "'" + video + "' holds no frame");
+    std::vector<std::pair<std::string, double>> stage_seconds = {{"extract frames",
+                                                                  total.seconds()}},
+                                                stage_cpu = {{"extract frames",
+                                                              detail::processCpuSeconds() - cpu0}};
 
     // 2. COLMAP (resumable: reuse a completed run).
     std::vector<ColmapModel> models;
@@ -351,11 +357,24 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
                     (names.size() + opt.stride - 1) / opt.stride,
                     (work / "colmap.log").string().c_str());
         std::fflush(stdout);
-        models =
-            runColmapSfM(frames.string(), work_dir, frame0.camera.K, frame0.image_size, opt.colmap);
+        models = runColmapSfM(frames.string(), work_dir, frame0.camera.K, frame0.image_size,
+                              opt.colmap, &stage_seconds, &stage_cpu);
         detail::writeMarker(done.string(), std::to_string(models.size()));
+    } else {
+        stage_seconds.emplace_back("colmap (reused)", 0.0);
+        stage_cpu.emplace_back("colmap (reused)", 0.0);
     }
-    return alignModelWithFrame0(models, names, frame0, work_dir, opt, total, report);
+    const ScopedTimer t_align;
+    const double cpu_align = detail::processCpuSeconds();
+    CameraTrackingReport r;
+    CameraPath path = alignModelWithFrame0(models, names, frame0, work_dir, opt, total, &r);
+    stage_seconds.emplace_back("align", t_align.seconds());
+    stage_cpu.emplace_back("align", detail::processCpuSeconds() - cpu_align);
+    r.stage_seconds = stage_seconds;
+    r.stage_cpu_seconds = stage_cpu;
+    r.seconds = total.seconds();
+    if (report) *report = r;
+    return path;
 }
 
 void drawRoomBox(InputOutputArray _image, const Camera& cam, const Room& room, const Scalar& colour,

@@ -8,6 +8,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <sys/resource.h>
+
 #include "opencv2/vbme/core/fileio.hpp"
 #include "opencv2/vbme/core/utility.hpp"
 
@@ -224,6 +226,13 @@ namespace {
 
 using Args = std::vector<std::string>;
 
+// CPU seconds (user + system) of this process's finished, waited-for children.
+double childCpuSeconds() {
+    rusage u{};
+    getrusage(RUSAGE_CHILDREN, &u);
+    return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
 // Runs one colmap step (no shell), appending its output to the log; throws in plain words
 // on failure.
 void runStep(const ColmapOptions& o, const std::string& step, const Args& args,
@@ -261,14 +270,18 @@ void runStep(const ColmapOptions& o, const std::string& step, const Args& args,
 
 }  // namespace
 
-std::vector<ColmapModel> runColmapSfM(const std::string& image_dir, const std::string& work_dir,
-                                      const Matx33d& K, Size size, const ColmapOptions& o,
-                                      std::vector<std::pair<std::string, double>>* step_seconds) {
+std::vector<ColmapModel> runColmapSfM(
+    const std::string& image_dir, const std::string& work_dir, const Matx33d& K, Size size,
+    const ColmapOptions& o, std::vector<std::pair<std::string, double>>* step_seconds,
+    std::vector<std::pair<std::string, double>>* step_cpu_seconds) {
     auto timed = [&](const std::string& step, const Args& args, const std::string& log) {
+        const double cpu0 = childCpuSeconds();
         ScopedTimer timer([&](double s) {
             if (step_seconds) step_seconds->emplace_back(step, s);
         });
         runStep(o, step, args, log);
+        timer.stop();
+        if (step_cpu_seconds) step_cpu_seconds->emplace_back(step, childCpuSeconds() - cpu0);
     };
     std::error_code ec;
     if (!fs::is_directory(image_dir, ec))

@@ -25,10 +25,26 @@ namespace vbme {
 
 namespace {
 
-// Adds the seconds of a stage to the report when stopped.
-ScopedTimer stageTimer(CameraTrackingReport& rep, const char* stage) {
-    return ScopedTimer([&rep, stage](double s) { rep.stage_seconds.emplace_back(stage, s); });
-}
+// Adds the wall and CPU seconds of a stage to the report when stopped.
+class StageTimer {
+public:
+    StageTimer(CameraTrackingReport& rep, const char* stage)
+        : rep_(rep), stage_(stage), cpu0_(detail::processCpuSeconds()) {}
+    ~StageTimer() { stop(); }
+    void stop() {
+        if (stopped_) return;
+        stopped_ = true;
+        rep_.stage_seconds.emplace_back(stage_, wall_.stop());
+        rep_.stage_cpu_seconds.emplace_back(stage_, detail::processCpuSeconds() - cpu0_);
+    }
+
+private:
+    CameraTrackingReport& rep_;
+    const char* stage_;
+    double cpu0_;
+    ScopedTimer wall_;
+    bool stopped_ = false;
+};
 
 const Size kWin(21, 21);
 const int kLevels = 4;
@@ -254,7 +270,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
     if (opt.stride > 1) ko.stride = opt.stride;
 
     // 1. Keyframes.
-    ScopedTimer t_keys = stageTimer(rep, "keyframes");
+    StageTimer t_keys(rep, "keyframes");
     std::vector<detail::CornerTrack> tracks;
     std::vector<int> keys =
         selectKeyframesAndTracks(gray, ko, opt.global_refine ? &tracks : nullptr);
@@ -311,10 +327,11 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
                 co.min_model_size = std::min(co.min_model_size, 3);
                 co.abs_pose_min_num_inliers = std::min(co.abs_pose_min_num_inliers, 15);
                 models = runColmapSfM(kdir.string(), work_dir, frame0.camera.K, frame0.image_size,
-                                      co, &rep.stage_seconds);
+                                      co, &rep.stage_seconds, &rep.stage_cpu_seconds);
                 detail::writeMarker(done.string(), key_list.str());
             } else {
                 rep.stage_seconds.emplace_back("colmap (reused)", 0.0);
+                rep.stage_cpu_seconds.emplace_back("colmap (reused)", 0.0);
             }
             model = nullptr;
             for (const auto& m : models)
@@ -352,7 +369,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
     rep.keyframes = (int)keys.size();
 
     // 3. Alignment to the room (and refinement) of the keyframes.
-    ScopedTimer t_align = stageTimer(rep, "align");
+    StageTimer t_align(rep, "align");
     std::map<long long, Vec3d> world;
     CameraPath path = detail::alignToRoomWithPoints(*model, names, frame0, opt, &rep, &world);
     rep.models = (int)models.size();
@@ -360,7 +377,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
 
     // 4. PnP for every frame COLMAP did not register, from the nearest registered frame on each
     // side.
-    ScopedTimer t_pnp = stageTimer(rep, "pnp");
+    StageTimer t_pnp(rep, "pnp");
     std::vector<int> anchors;
     for (int i = 0; i < n; ++i)
         if (path.frames[i].source == CameraPath::SFM) anchors.push_back(i);
@@ -415,7 +432,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
     // 5. Every registered frame (SfM and PnP) adjusted jointly with points triangulated from the
     // corner tracks through the whole video.
     if (opt.global_refine) {
-        ScopedTimer t_ba = stageTimer(rep, "joint adjustment");
+        StageTimer t_ba(rep, "joint adjustment");
         const CameraPath before = path;
         const detail::GlobalRefineSummary g =
             detail::refineAllFrames(tracks, frame0, opt.plane_tolerance, have, path);

@@ -138,6 +138,9 @@ struct CV_EXPORTS CameraTrackingReport {
     /** Wall time of each stage (name, seconds) in order, e.g. decode, keyframes, COLMAP's
     feature_extractor, sequential_matcher, mapper, align, pnp. */
     std::vector<std::pair<std::string, double>> stage_seconds;
+    /** CPU time (user + system, seconds) of each stage, in the order of stage_seconds: vbme's
+    threads for its own stages, COLMAP's process for COLMAP's steps. */
+    std::vector<std::pair<std::string, double>> stage_cpu_seconds;
 };
 
 /** @brief Aligns a COLMAP model to the annotated room: rotates and translates

@@ -110,13 +110,16 @@ SIFT), sequential_matcher (the images' names must sort in time), mapper
 @param K intrinsics in the vbme convention (converted to COLMAP's +0.5 here).
 @param size image size.
 @param step_seconds if given, receives the wall time of each COLMAP step (name, seconds).
+@param step_cpu_seconds if given, receives the CPU time (user + system) of each COLMAP step's
+process (name, seconds).
 @return the reconstructed models, largest first (several when COLMAP splits the
 video). Throws cv::Exception in plain words when the program is missing or a
 step fails (naming the log). */
 CV_EXPORTS std::vector<ColmapModel> runColmapSfM(
     const std::string& image_dir, const std::string& work_dir, const Matx33d& K, Size size,
     const ColmapOptions& options = ColmapOptions(),
-    std::vector<std::pair<std::string, double>>* step_seconds = nullptr);
+    std::vector<std::pair<std::string, double>>* step_seconds = nullptr,
+    std::vector<std::pair<std::string, double>>* step_cpu_seconds = nullptr);
 /** @} */
 
 //! @}
