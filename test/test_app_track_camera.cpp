@@ -148,6 +148,13 @@ TEST(AppTrackCamera, TracksAVideoWithStrideAndResumes) {
         EXPECT_GT((double)rf["pnp_rms_px"], 0.0);
         EXPECT_FALSE(rf["stage_seconds"]["mapper"].empty());
         EXPECT_FALSE(rf["stage_seconds"]["pnp"].empty());
+        EXPECT_GT((double)rf["stage_cpu_seconds"]["feature_extractor"], 0.0);
+        EXPECT_FALSE(rf["stage_cpu_seconds"]["joint_adjustment"].empty());
+        // every frame adjusted jointly, consistently with the room
+        EXPECT_EQ((int)rf["joint_adjustment_applied"], 1);
+        EXPECT_GT((double)rf["joint_rms_px"], 0.0);
+        EXPECT_LT((double)rf["joint_rms_px"], 0.5);
+        EXPECT_GT((double)rf["joint_points_on_box_faces"], 0.75);  // measured 0.86
     }
     EXPECT_NE(r1.output.find("by PnP"), std::string::npos) << r1.output;
 

@@ -4,6 +4,7 @@
 // against interpolation between the same keyframes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -76,88 +77,143 @@ TEST(CalibKeyframes, DenserWhereTheCameraPansFast) {
     EXPECT_EQ(selectKeyframes(gray, fixed), (std::vector<int>{0, 7, 14, 21, 28, 35, 42, 49}));
 }
 
+namespace {
+
+// Accuracy of a track against the truth, per frame source (SFM, PNP, INTERPOLATED) and over all
+// frames (index 3).
+struct TrackErrors {
+    double ate[4] = {0, 0, 0, 0}, worst[4] = {0, 0, 0, 0}, worst_rot[4] = {0, 0, 0, 0};
+    int count[4] = {0, 0, 0, 0};
+};
+
+TrackErrors trackErrors(const CameraPath& path, const CameraPath& truth,
+                        const std::vector<int>& only = {}) {
+    TrackErrors t;
+    double se[4] = {0, 0, 0, 0};
+    for (int i = 0; i < (int)truth.frames.size(); ++i) {
+        if (!only.empty() && std::find(only.begin(), only.end(), i) == only.end()) continue;
+        const double e = norm(path.camera(i).center() - truth.camera(i).center());
+        const double r = rotationErrorDeg(path.frames[i].R, truth.frames[i].R);
+        for (int c : {(int)path.frames[i].source, 3}) {
+            se[c] += e * e, ++t.count[c];
+            t.worst[c] = std::max(t.worst[c], e);
+            t.worst_rot[c] = std::max(t.worst_rot[c], r);
+        }
+    }
+    for (int c = 0; c < 4; ++c)
+        t.ate[c] = t.count[c] ? std::sqrt(se[c] / t.count[c]) : 0;
+    return t;
+}
+
+void printErrors(const char* label, const TrackErrors& t) {
+    std::printf("%s\n", label);
+    for (int c = 0; c < 4; ++c)
+        if (t.count[c])
+            std::printf("  %-12s %2d frames: ATE %.3f cm, worst %.3f cm, worst rotation %.3f deg\n",
+                        c == 3 ? "all" : CameraPath::sourceName((CameraPath::Source)c).c_str(),
+                        t.count[c], 100 * t.ate[c], 100 * t.worst[c], t.worst_rot[c]);
+}
+
+}  // namespace
+
 TEST(CalibTracking, KeyframesAndPnPOnBlenderClip) {
     if (vbme_test::run("colmap help").code != 0)
         GTEST_SKIP() << "the colmap program is not installed";
     const fs::path data = fs::path(VBME_TEST_DATA_DIR) / "camtrack_blender";
     const Scene scene = Scene::read((data / "scene.yml").string());
     const CameraPath truth = CameraPath::read((data / "truth.yml").string());
+    const std::string clip = (data / "clip.mkv").string();
     const int n = (int)truth.frames.size();
     vbme_test::ScratchDir tmp;
     CameraTrackingOptions opt;
     CameraTrackingReport rep;
     const auto t0 = std::chrono::steady_clock::now();
-    const CameraPath path =
-        trackCameraVideo((data / "clip.mkv").string(), scene, tmp / "work", opt, &rep);
+    const CameraPath path = trackCameraVideo(clip, scene, tmp / "work", opt, &rep);
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     ASSERT_EQ((int)path.frames.size(), n);
-    // The same keyframes, the other frames interpolated (COLMAP's run reused): the baseline.
+    // The same keyframes (COLMAP's run reused) without the joint adjustment (PnP alone), and with
+    // the other frames interpolated instead (the naive baseline).
+    opt.global_refine = false;
+    CameraTrackingReport rep_pnp;
+    const CameraPath pnp_only = trackCameraVideo(clip, scene, tmp / "work", opt, &rep_pnp);
     opt.pnp = false;
     CameraTrackingReport rep_interp;
-    const CameraPath interp =
-        trackCameraVideo((data / "clip.mkv").string(), scene, tmp / "work", opt, &rep_interp);
+    const CameraPath interp = trackCameraVideo(clip, scene, tmp / "work", opt, &rep_interp);
+    ASSERT_EQ((int)pnp_only.frames.size(), n);
     ASSERT_EQ((int)interp.frames.size(), n);
 
-    double se[3] = {0, 0, 0}, worst[3] = {0, 0, 0}, worst_rot[3] = {0, 0, 0};
-    int count[3] = {0, 0, 0};
-    double se_base = 0, worst_base = 0, worst_rot_base = 0;  // interpolation on the PnP frames
-    for (int i = 0; i < n; ++i) {
-        const int src = path.frames[i].source;
-        const double e = norm(path.camera(i).center() - truth.camera(i).center());
-        const double r = rotationErrorDeg(path.frames[i].R, truth.frames[i].R);
-        se[src] += e * e, ++count[src];
-        worst[src] = std::max(worst[src], e);
-        worst_rot[src] = std::max(worst_rot[src], r);
-        if (src == CameraPath::PNP) {
-            const double eb = norm(interp.camera(i).center() - truth.camera(i).center());
-            se_base += eb * eb;
-            worst_base = std::max(worst_base, eb);
-            worst_rot_base =
-                std::max(worst_rot_base, rotationErrorDeg(interp.frames[i].R, truth.frames[i].R));
-        }
-    }
     std::string stages;
     for (const auto& st : rep.stage_seconds)
         stages += format(" %s %.1f s", st.first.c_str(), st.second);
     std::printf(
         "%d frames, %d keyframes: %d SfM, %d PnP (inlier RMS %.3f px, %.0f inliers), %d "
-        "interpolated; %.1f s = %.2f s/frame (stages:%s)\n",
+        "interpolated; %.1f s = %.2f s/frame (stages:%s)\n"
+        "joint adjustment%s: %d points, %d observations, RMS %.3f px, worst frame %.3f px, "
+        "%.3f of the points on the box's faces\n",
         n, rep.keyframes, rep.registered, rep.pnp, rep.pnp_rms, rep.pnp_inliers, rep.interpolated,
-        seconds, seconds / n, stages.c_str());
-    for (int src = 0; src < 3; ++src)
-        if (count[src])
-            std::printf("  %-12s %2d frames: ATE %.3f cm, worst %.3f cm, worst rotation %.3f deg\n",
-                        CameraPath::sourceName((CameraPath::Source)src).c_str(), count[src],
-                        100 * std::sqrt(se[src] / count[src]), 100 * worst[src], worst_rot[src]);
-    if (count[CameraPath::PNP])
-        std::printf(
-            "  the PnP frames interpolated between the same keyframes instead: ATE %.3f "
-            "cm, worst %.3f cm, worst rotation %.3f deg\n",
-            100 * std::sqrt(se_base / count[CameraPath::PNP]), 100 * worst_base, worst_rot_base);
+        seconds, seconds / n, stages.c_str(), rep.ba_applied ? "" : " (NOT applied)", rep.ba_points,
+        rep.ba_observations, rep.ba_rms, rep.ba_worst_frame_rms, rep.ba_on_face);
+    const TrackErrors e = trackErrors(path, truth), e_pnp = trackErrors(pnp_only, truth);
+    std::vector<int> pnp_frames;
+    for (int i = 0; i < n; ++i)
+        if (path.frames[i].source == CameraPath::PNP) pnp_frames.push_back(i);
+    const TrackErrors e_interp = trackErrors(interp, truth, pnp_frames);
+    printErrors("keyframes + PnP + joint adjustment:", e);
+    printErrors("keyframes + PnP alone (the same COLMAP run):", e_pnp);
+    printErrors("the PnP frames interpolated between the same keyframes instead:", e_interp);
 
     // COLMAP saw only the keyframes, far fewer than the frames; every frame is registered.
     EXPECT_EQ(rep.registered + rep.pnp + rep.interpolated, n);
-    EXPECT_EQ(count[CameraPath::SFM], rep.registered);
-    EXPECT_EQ(count[CameraPath::PNP], rep.pnp);
+    EXPECT_EQ(e.count[CameraPath::SFM], rep.registered);
+    EXPECT_EQ(e.count[CameraPath::PNP], rep.pnp);
     EXPECT_LE(rep.keyframes, n / 2);
     EXPECT_GE(rep.registered, rep.keyframes - 2);
     EXPECT_GE(rep.pnp, n - rep.keyframes - 3);
     EXPECT_LE(rep.interpolated, 3);
-    // The aims (every frame within 0.5 cm RMS, none worse than 1 cm or 0.2 degrees) are
-    // NOT reached on this clip: COLMAP's 10-keyframe model itself is 1-5 cm off, differently in
-    // every run (see doc/vbme_calib_tracking.md). Asserted here, what holds across runs: a track
-    // in the room (10 cm, 2 degrees), PnP frames as good as the keyframes they hang on, and PnP
-    // following the hand's rotation where interpolation between the same keyframes cannot.
-    for (int src : {CameraPath::SFM, CameraPath::PNP}) {
-        ASSERT_GT(count[src], 0) << src;
-        EXPECT_LE(std::sqrt(se[src] / count[src]), 0.10) << src;
-        EXPECT_LE(worst_rot[src], 2.0) << src;
-    }
     EXPECT_LE(rep.pnp_rms, 1.0);
-    EXPECT_LE(std::sqrt(se[CameraPath::PNP] / count[CameraPath::PNP]),
-              1.2 * std::sqrt(se[CameraPath::SFM] / count[CameraPath::SFM]) + 0.002);
-    EXPECT_LE(worst_rot[CameraPath::PNP], 1.2 * worst_rot[CameraPath::SFM] + 0.05);
-    EXPECT_LT(worst_rot[CameraPath::PNP], 0.5 * worst_rot_base);
     EXPECT_EQ(rep_interp.pnp, 0);
+    // The joint adjustment ran and was used, on points spread over the clip.
+    EXPECT_TRUE(rep.ba_applied);
+    EXPECT_GE(rep.ba_points, 500);
+    EXPECT_LE(rep.ba_rms, 0.6);
+    EXPECT_GE(rep.ba_on_face, 0.74);  // measured 0.785-0.793 in four runs
+    // Accuracy over every frame, bounds over what four runs with different COLMAP models gave
+    // (ATE 0.53-0.56 cm, worst 0.94-0.97 cm, worst rotation 0.147-0.157 degrees; see
+    // doc/vbme_calib_tracking.md). The aims are ATE 0.5 cm, none worse than 1 cm or 0.2
+    // degrees: the last two are met, the ATE narrowly not.
+    EXPECT_LE(e.ate[3], 0.0075);
+    EXPECT_LE(e.worst[3], 0.013);
+    EXPECT_LE(e.worst_rot[3], 0.25);
+    // No worse than PnP alone on the same model (which follows COLMAP's keyframe model: 0.51 and
+    // 2.8 cm in two runs), and far better in rotation than interpolation.
+    EXPECT_LE(e.ate[3], e_pnp.ate[3] + 0.001);
+    EXPECT_LE(e.worst_rot[3], e_pnp.worst_rot[3] + 0.02);
+    EXPECT_LT(e.worst_rot[CameraPath::PNP], 0.2 * e_interp.worst_rot[3]);
+}
+
+TEST(CalibTracking, KeyframeTrackConfidenceFallsWithAWrongFocalLength) {
+    // The annotation's focal length 5 % too long: COLMAP and the adjustment still converge, but
+    // the track is centimetres off and its points no longer sit on the room's faces.
+    if (vbme_test::run("colmap help").code != 0)
+        GTEST_SKIP() << "the colmap program is not installed";
+    const fs::path data = fs::path(VBME_TEST_DATA_DIR) / "camtrack_blender";
+    Scene scene = Scene::read((data / "scene.yml").string());
+    const CameraPath truth = CameraPath::read((data / "truth.yml").string());
+    scene.camera.K(0, 0) *= 1.05;
+    scene.camera.K(1, 1) *= 1.05;
+    vbme_test::ScratchDir tmp;
+    CameraTrackingReport rep;
+    const CameraPath path =
+        trackCameraVideo((data / "clip.mkv").string(), scene, tmp / "work", {}, &rep);
+    const TrackErrors e = trackErrors(path, truth);
+    printErrors("focal length 5 % too long:", e);
+    std::printf(
+        "joint adjustment RMS %.3f px, worst frame %.3f px, %.3f of the points on the "
+        "box's faces\n",
+        rep.ba_rms, rep.ba_worst_frame_rms, rep.ba_on_face);
+    // measured: ATE 5.8-6.2 cm, 0.622-0.636 of the points on the faces (0.785-0.793 with the
+    // true focal length, asserted >= 0.74 in KeyframesAndPnPOnBlenderClip)
+    EXPECT_GT(e.ate[3], 0.03);        // the track is wrong...
+    EXPECT_LT(rep.ba_on_face, 0.70);  // ...and says so
 }

@@ -134,15 +134,19 @@ void runTrackCamera(const TrackCameraOptions& o) {
                << r.scale.scale << "scale_relative_spread" << r.scale.spread << "scale_points_used"
                << r.scale.used << "scale_points_total" << r.scale.total << "seconds" << r.seconds
                << "seconds_per_frame" << (r.frames ? r.seconds / r.frames : 0.0);
-            fs << "stage_seconds"
-               << "{";
-            for (const auto& st : r.stage_seconds) {
-                std::string key = st.first;
-                for (char& ch : key)
-                    if (!std::isalnum((unsigned char)ch)) ch = '_';
-                fs << key << st.second;
-            }
-            fs << "}";
+            auto stageMap = [&](const char* name,
+                                const std::vector<std::pair<std::string, double>>& stages) {
+                fs << name << "{";
+                for (const auto& st : stages) {
+                    std::string key = st.first;
+                    for (char& ch : key)
+                        if (!std::isalnum((unsigned char)ch)) ch = '_';
+                    fs << key << st.second;
+                }
+                fs << "}";
+            };
+            stageMap("stage_seconds", r.stage_seconds);
+            stageMap("stage_cpu_seconds", r.stage_cpu_seconds);
         }
         rf.commit();
     }

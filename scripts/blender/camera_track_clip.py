@@ -3,12 +3,15 @@
 true camera of every frame in vbme's conventions, for the camera-tracking tests and benchmark.
 
     blender -b -P scripts/blender/camera_track_clip.py -- OUT_DIR [--frames 60] [--samples 8]
-        [--width 640] [--height 360] [--threads 2]
+        [--width 640] [--height 360] [--threads 2] [--subframes 10]
 
 Writes into OUT_DIR:
   frames/frame_%05d.png   the rendered frames (8-bit sRGB)
   truth.yml               vbme camera path (K, image_size, frames: cam_from_world, OpenCV axes)
   scene.yml               the frame-0 scene (image size, camera K, R, t; the room box)
+
+test/data/camtrack_blender/clip.mkv is the default run's frames encoded with
+    ffmpeg -framerate 30 -i OUT_DIR/frames/frame_%05d.png -c:v libx264 -crf 12 -pix_fmt yuv444p clip.mkv
 
 The room is a 4 x 5 x 2.6 m box (x in [-2, 2], y in [-1, 4], z in [0, 2.6], z up, floor at
 z = 0) whose walls carry emission shaders fed by procedural textures (noise, Voronoi cells and
@@ -30,7 +33,8 @@ argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 if not argv:
     sys.exit("usage: blender -b -P camera_track_clip.py -- OUT_DIR [options]")
 out_dir = os.path.abspath(argv[0])
-opts = {"--frames": 60, "--samples": 8, "--width": 640, "--height": 360, "--threads": 2}
+opts = {"--frames": 60, "--samples": 8, "--width": 640, "--height": 360, "--threads": 2,
+        "--subframes": 10}
 for i in range(1, len(argv) - 1, 2):
     opts[argv[i]] = int(argv[i + 1])
 N, W, H = opts["--frames"], opts["--width"], opts["--height"]
@@ -146,7 +150,22 @@ def pose(f):
     return c, yaw, pitch, roll
 
 
-vb.animate_camera(cam, pose, N)
+# Keyframes every 1/SUB frame of the smooth path, so that the motion within the shutter is smooth
+# as a real camera's (keyframes on whole frames only, interpolated linearly, change the velocity
+# in the middle of every exposure: the blur is then lopsided and its centre is not the camera of
+# the frame time), and Cycles samples the camera at 2^(MOTION_STEPS-1) times in the shutter.
+SUB = opts["--subframes"]
+for k in range(SUB * (N - 1) + 1):
+    f = k / SUB
+    c, yaw, pitch, roll = pose(f)
+    cam.location = c
+    cam.rotation_euler = (math.pi / 2 - pitch, roll, yaw)
+    cam.keyframe_insert("location", frame=f)
+    cam.keyframe_insert("rotation_euler", frame=f)
+for fc in cam.animation_data.action.fcurves:
+    for kp in fc.keyframe_points:
+        kp.interpolation = "LINEAR"
+cam.cycles.motion_steps = 5 if SUB > 1 else 1
 
 # ---------------------------------------------------------------- truth in vbme's conventions
 K = vb.intrinsics(FOCAL, W, H)

@@ -433,6 +433,24 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
     // corner tracks through the whole video.
     if (opt.global_refine) {
         StageTimer t_ba(rep, "joint adjustment");
+        // COLMAP's own observations of its points in the keyframes join the corner tracks: matched
+        // across keyframes by descriptor, they do not drift along a track.
+        {
+            std::map<long long, detail::CornerTrack> by_point;
+            for (int i = 0; i < n; ++i) {
+                if (path.frames[i].source != CameraPath::SFM) continue;
+                const ColmapImage* im = model->imageByName(names[i]);
+                if (!im) continue;
+                for (size_t k = 0; k < im->xys.size(); ++k)
+                    if (im->point3d_ids[k] >= 0) {
+                        detail::CornerTrack& t = by_point[im->point3d_ids[k]];
+                        t.frames.push_back(i);
+                        t.px.emplace_back((float)(im->xys[k].x - 0.5), (float)(im->xys[k].y - 0.5));
+                    }
+            }
+            for (auto& kv : by_point)
+                tracks.push_back(std::move(kv.second));
+        }
         const CameraPath before = path;
         const detail::GlobalRefineSummary g =
             detail::refineAllFrames(tracks, frame0, opt.plane_tolerance, have, path);

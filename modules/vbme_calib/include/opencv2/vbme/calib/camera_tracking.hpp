@@ -199,8 +199,15 @@ nearest registered frame on each side that have a 3D point are tracked into it (
 frame to frame, forward-backward checked), its pose solved by RANSAC PnP and refined by
 Levenberg-Marquardt on the inliers with the points fixed (solvePnPRefineLM), in the room frame
 (CameraPath::PNP). A frame with too few inliers or too large an error keeps the interpolated
-pose (CameraPath::INTERPOLATED). Resumable: a finished COLMAP run on the same keyframes found in
-@p work_dir is reused.
+pose (CameraPath::INTERPOLATED). Then, with options.global_refine, every SfM and PnP frame is
+adjusted jointly (Ceres, intrinsics fixed, frame 0 held): the corners the keyframe choice tracked
+through the whole video and COLMAP's own keyframe observations are triangulated at the current
+poses (or placed on the room box where their rays are nearly parallel), points near a face of the
+box are tied to it, observations more than 2 px off are dropped; the adjusted poses replace the
+SfM and PnP ones unless a frame moved more than 0.25 m or 5 degrees (report.ba_applied). This
+makes the track depend far less on COLMAP's keyframe model, which varies between runs. Resumable:
+a finished COLMAP run on the same keyframes, settings and intrinsics found in @p work_dir is
+reused.
 @param gray the video's frames, 8-bit single channel, of frame0.image_size. */
 CV_EXPORTS CameraPath
 trackCameraKeyframes(InputArrayOfArrays gray, const Scene& frame0, const std::string& work_dir,
