@@ -527,7 +527,9 @@ void benchTrackCamera(const BenchOptions& o) {
                                                                 o.width, o.height, o.frames);
         frames = dir / "frames";
         scene = syntheticRoomScene(Size(o.width, o.height), 0.8 * o.width);
-        truth = handheldCameraPath(scene.camera, o.frames, 0.01 * o.frames, 0.01, 0.5, 5);
+        // 1 cm per frame, at most 1 m (a longer walk leaves the 4 x 5 m room)
+        truth = handheldCameraPath(scene.camera, o.frames, std::min(0.01 * o.frames, 1.0), 0.01,
+                                   0.5, 5);
         if (!fs::exists(dir / "complete")) {
             fs::create_directories(frames);
             const auto textures = makeRoomTextures(3, 1024);

@@ -250,6 +250,7 @@ GlobalRefineSummary refineAllFrames(const std::vector<CornerTrack>& tracks, cons
     };
     std::vector<std::array<double, 3>> points;
     std::vector<std::vector<Obs>> obs;
+    std::vector<double> sigma;
     const double min_angle = std::cos(1.0 * CV_PI / 180);
     for (const CornerTrack& tr : tracks) {
         std::vector<Obs> o;
@@ -293,6 +294,7 @@ GlobalRefineSummary refineAllFrames(const std::vector<CornerTrack>& tracks, cons
         if (!(err[err.size() / 2] < 3.0)) continue;
         points.push_back({X[0], X[1], X[2]});
         obs.push_back(o);
+        sigma.push_back(tr.sigma);
     }
     sum.points = (int)points.size();
     if (points.empty()) return sum;
@@ -304,7 +306,9 @@ GlobalRefineSummary refineAllFrames(const std::vector<CornerTrack>& tracks, cons
             blocks[p].push_back(problem.AddResidualBlock(
                 new ceres::AutoDiffCostFunction<Reprojection, 2, 6, 3>(
                     new Reprojection(b.px.x, b.px.y, K)),
-                new ceres::HuberLoss(1.0), poses[b.frame].data(), points[p].data()));
+                new ceres::ScaledLoss(new ceres::HuberLoss(sigma[p]), 1.0 / (sigma[p] * sigma[p]),
+                                      ceres::TAKE_OWNERSHIP),
+                poses[b.frame].data(), points[p].data()));
             ++sum.total_observations;
         }
         const Room& room = frame0.room;

@@ -54,6 +54,7 @@ position in each (vbme pixel convention). */
 struct CornerTrack {
     std::vector<int> frames;
     std::vector<Point2f> px;
+    float sigma = 1;  // standard deviation of its positions (pixels): its weight is 1 / sigma²
 };
 
 /** What refineAllFrames() did. */
