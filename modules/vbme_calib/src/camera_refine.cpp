@@ -371,14 +371,18 @@ GlobalRefineSummary refineAllFrames(const std::vector<CornerTrack>& tracks, cons
     // Points on a face of the room box at the end: a track that does not fit the annotated room
     // (a wrong focal length, a wrong box) leaves fewer of them there.
     int on_face = 0;
+    std::vector<double> face_dist;
     for (const auto& X : points) {
         double best = std::numeric_limits<double>::infinity();
         for (int a = 0; a < 3; ++a)
             for (double v : {frame0.room.min[a], frame0.room.max[a]})
                 best = std::min(best, std::abs(X[a] - v));
         on_face += best < plane_tolerance;
+        face_dist.push_back(best);
     }
     sum.on_face_fraction = double(on_face) / points.size();
+    std::nth_element(face_dist.begin(), face_dist.begin() + face_dist.size() / 2, face_dist.end());
+    sum.median_face_distance = face_dist[face_dist.size() / 2];
     for (size_t i = 0; i < n; ++i)
         if (frame_count[i])
             sum.worst_frame_rms =

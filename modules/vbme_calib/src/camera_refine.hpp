@@ -59,13 +59,14 @@ struct CornerTrack {
 
 /** What refineAllFrames() did. */
 struct GlobalRefineSummary {
-    double rms = 0;               // inlier reprojection RMS at the end (pixels)
-    int points = 0;               // tracks triangulated and adjusted
-    int observations = 0;         // inlier observations at the end
-    int total_observations = 0;   // observations of the triangulated tracks before rejection
-    double worst_frame_rms = 0;   // worst per-frame inlier RMS (pixels)
-    int plane_points = 0;         // points tied to a face of the room box
-    double on_face_fraction = 0;  // points within plane_tolerance of a face at the end
+    double rms = 0;                   // inlier reprojection RMS at the end (pixels)
+    int points = 0;                   // tracks triangulated and adjusted
+    int observations = 0;             // inlier observations at the end
+    int total_observations = 0;       // observations of the triangulated tracks before rejection
+    double worst_frame_rms = 0;       // worst per-frame inlier RMS (pixels)
+    int plane_points = 0;             // points tied to a face of the room box
+    double on_face_fraction = 0;      // points within plane_tolerance of a face at the end
+    double median_face_distance = 0;  // median distance (m) of the points to the nearest face
 };
 
 /** Joint bundle adjustment of every frame with @p posed set (intrinsics fixed, frame 0 held when

@@ -486,6 +486,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
         rep.ba_observations = g.observations;
         rep.ba_worst_frame_rms = g.worst_frame_rms;
         rep.ba_on_face = g.on_face_fraction;
+        rep.ba_face_distance = g.median_face_distance;
     }
     // Frames PnP could not hold: interpolated between the nearest registered ones (SfM or PnP).
     const int interpolated = detail::interpolateMissing(path, have);
