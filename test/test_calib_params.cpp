@@ -116,6 +116,7 @@ TEST(CalibParams, CameraTrackingOptions) {
     o.pnp = false;
     o.pnp_min_inliers = 30;
     o.pnp_max_rms = 2.0;
+    o.global_refine = false;
     o.robust_scale = false;
     o.scale_tolerance = 0.1;
     o.stride = 2;
