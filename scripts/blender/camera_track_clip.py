@@ -150,21 +150,10 @@ def pose(f):
     return c, yaw, pitch, roll
 
 
-# Keyframes every 1/SUB frame of the smooth path, so that the motion within the shutter is smooth
-# as a real camera's (keyframes on whole frames only, interpolated linearly, change the velocity
-# in the middle of every exposure: the blur is then lopsided and its centre is not the camera of
-# the frame time), and Cycles samples the camera at 2^(MOTION_STEPS-1) times in the shutter.
+# Keyframes every 1/SUB frame of the smooth path (see vb.animate_camera), and Cycles samples the
+# camera at 2^(MOTION_STEPS-1) times in the shutter.
 SUB = opts["--subframes"]
-for k in range(SUB * (N - 1) + 1):
-    f = k / SUB
-    c, yaw, pitch, roll = pose(f)
-    cam.location = c
-    cam.rotation_euler = (math.pi / 2 - pitch, roll, yaw)
-    cam.keyframe_insert("location", frame=f)
-    cam.keyframe_insert("rotation_euler", frame=f)
-for fc in cam.animation_data.action.fcurves:
-    for kp in fc.keyframe_points:
-        kp.interpolation = "LINEAR"
+vb.animate_camera(cam, pose, N, SUB)
 cam.cycles.motion_steps = 5 if SUB > 1 else 1
 
 # ---------------------------------------------------------------- truth in vbme's conventions

@@ -47,10 +47,14 @@ def add_camera(scene, focal_px, width):
     return cam
 
 
-def animate_camera(cam, pose, frames):
+def animate_camera(cam, pose, frames, subframes=1):
     """Keyframes frames 0..frames-1 from pose(f) = (centre, yaw, pitch, roll), interpolated
-    linearly between frames (what motion blur integrates over)."""
-    for f in range(frames):
+    linearly between keys (what motion blur integrates over). With subframes > 1 the keys are
+    every 1/subframes frame, so that the motion within the shutter is as smooth as a real
+    camera's (keys on whole frames only change the velocity in the middle of every exposure:
+    the blur is then lopsided and its centre is not the camera of the frame time)."""
+    for k in range(subframes * (frames - 1) + 1):
+        f = k / subframes if subframes > 1 else k
         c, yaw, pitch, roll = pose(f)
         cam.location = c
         # X by 90 degrees looks along +y; pitch tilts down; Z turns.
