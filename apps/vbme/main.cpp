@@ -44,7 +44,8 @@ void addVideoOutputOptions(CLI::App& app, cv::vbme::VideoSinkOptions& opts) {
         ->capture_default_str();
     app.add_option("--pix-fmt", opts.pix_fmt,
                    "Pixel format of the encoded video, e.g. yuv444p, yuv420p10le (default: "
-                   "yuv420p for h264/h265, yuv422p10le for prores, bgr0 for ffv1)");
+                   "yuv420p for h264/h265, yuv444p for the overlays of track and track-camera, "
+                   "yuv422p10le for prores, bgr0 for ffv1)");
     app.add_option("--bitrate", opts.bitrate,
                    "h264/h265: encode at this average bit rate (bit/s) instead of the CRF")
         ->check(CLI::PositiveNumber);
