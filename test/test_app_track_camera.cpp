@@ -170,6 +170,12 @@ TEST(AppTrackCamera, TracksAVideoWithStrideAndResumes) {
     const std::string after((std::istreambuf_iterator<char>(b)), std::istreambuf_iterator<char>());
     EXPECT_EQ(before, after);
     std::printf("first run %.1f s, resumed run %.1f s\n", first_run, second_run);
-    EXPECT_LT(second_run, 0.5 * first_run);
+    // the COLMAP run was reused, not redone (a time bound said so before the joint adjustment,
+    // which is not cached, made the resumed run's time depend on the machine's load)
+    FileStorage rf(dir / "cams_report.yml", FileStorage::READ);
+    ASSERT_TRUE(rf.isOpened());
+    EXPECT_FALSE(rf["stage_seconds"]["colmap__reused_"].empty());
+    EXPECT_TRUE(rf["stage_seconds"]["feature_extractor"].empty());
+    EXPECT_TRUE(rf["stage_seconds"]["mapper"].empty());
 }
 #endif
