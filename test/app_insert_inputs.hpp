@@ -81,15 +81,6 @@ inline double secondsOf(const std::function<void()>& f) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-inline std::vector<Mat> videoFrames(const std::string& path) {
-    std::vector<Mat> v;
-    VideoReader r(path);
-    Mat f;
-    while (r.read(f))
-        v.push_back(f.clone());
-    return v;
-}
-
 inline bool sameImage(const Mat& a, const Mat& b) {
     return a.size() == b.size() && a.type() == b.type() && norm(a, b, NORM_INF) == 0;
 }

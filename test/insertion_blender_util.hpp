@@ -33,15 +33,6 @@ inline cv::vbme::InsertionParams insertionBlenderParams(const std::string& dir) 
 }
 
 /** Every frame of @p video (8-bit BGR). */
-inline std::vector<cv::Mat> readAllFrames(const std::string& video) {
-    std::vector<cv::Mat> out;
-    cv::vbme::VideoReader r(video);
-    cv::Mat f;
-    while (r.read(f))
-        out.push_back(f.clone());
-    return out;
-}
-
 /** The object's neighbourhood in one frame: where the truth differs from the input by more
 than the renders' noise (8 code values in some channel: the sphere, its shadow, the light it
 reflects), dilated by 3 px. */

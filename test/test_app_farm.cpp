@@ -15,6 +15,7 @@
 
 #include "app_insert_inputs.hpp"
 #include "vbme_test_util.hpp"
+#include "video_test_util.hpp"
 
 namespace {
 
@@ -96,6 +97,14 @@ struct LocalSlurm {
         char tmpl[] = "/tmp/vbme-slurm-XXXXXX";
         if (::mkdtemp(tmpl)) dir = tmpl;
     }
+    /** Starts the cluster (scripts/slurm-local.sh start): exit 3 when Slurm is not installed;
+    otherwise the cluster, even half started, is stopped at the end. */
+    vbme_test::RunResult start() {
+        const auto r = run(std::string("bash ") + VBME_SOURCE_DIR +
+                           "/scripts/slurm-local.sh start '" + dir + "'");
+        started = r.code != 3;
+        return r;
+    }
     ~LocalSlurm() {
         if (started)
             run(std::string("bash ") + VBME_SOURCE_DIR + "/scripts/slurm-local.sh stop '" + dir +
@@ -110,10 +119,8 @@ TEST(AppFarm, SlurmClusterMakesTheSameVideoAsOneMachine) {
     LocalSlurm slurm;
     ASSERT_FALSE(slurm.dir.empty());
     const std::string sdir = slurm.dir;
-    auto r = run(std::string("bash ") + VBME_SOURCE_DIR + "/scripts/slurm-local.sh start '" + sdir +
-                 "'");
+    auto r = slurm.start();
     if (r.code == 3) GTEST_SKIP() << "no Slurm cluster here: " << r.output;
-    slurm.started = true;
     ASSERT_EQ(r.code, 0) << r.output;
     const std::string conf = sdir + "/slurm.conf";
     const FaultInputs in = makeFaultInputs(dir, Size(48, 36), 6);
@@ -141,7 +148,8 @@ TEST(AppFarm, SlurmClusterMakesTheSameVideoAsOneMachine) {
         "%.2f s\n",
         t_one, t_farm);
     ASSERT_TRUE(fs::exists(out)) << "no video; job logs in " << dir / "farm_work/slurm";
-    const std::vector<Mat> got = videoFrames(out), want = videoFrames(ref);
+    const std::vector<Mat> got = vbme_test::readVideoFrames(out),
+                           want = vbme_test::readVideoFrames(ref);
     ASSERT_EQ(got.size(), want.size());
     for (size_t i = 0; i < got.size(); ++i)
         EXPECT_TRUE(sameImage(got[i], want[i])) << "frame " << i;
@@ -166,10 +174,8 @@ TEST(AppFarm, SlurmRequeuedTaskResumesToTheSameVideo) {
     LocalSlurm slurm;
     ASSERT_FALSE(slurm.dir.empty());
     const std::string sdir = slurm.dir;
-    auto r = run(std::string("bash ") + VBME_SOURCE_DIR + "/scripts/slurm-local.sh start '" + sdir +
-                 "'");
+    auto r = slurm.start();
     if (r.code == 3) GTEST_SKIP() << "no Slurm cluster here: " << r.output;
-    slurm.started = true;
     ASSERT_EQ(r.code, 0) << r.output;
     const std::string env = "SLURM_CONF='" + sdir + "/slurm.conf' ";
     // frames slow enough (more samples) for the requeue to land while a task renders
@@ -242,7 +248,8 @@ TEST(AppFarm, SlurmRequeuedTaskResumesToTheSameVideo) {
             }
         FAIL() << "no video; the queue: " << last_queue << "\njob logs:\n" << logs;
     }
-    const std::vector<Mat> got = videoFrames(out), want = videoFrames(ref);
+    const std::vector<Mat> got = vbme_test::readVideoFrames(out),
+                           want = vbme_test::readVideoFrames(ref);
     ASSERT_EQ(got.size(), want.size());
     for (size_t i = 0; i < got.size(); ++i)
         EXPECT_TRUE(sameImage(got[i], want[i])) << "frame " << i;

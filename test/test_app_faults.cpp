@@ -23,6 +23,7 @@
 
 #include "app_insert_inputs.hpp"
 #include "vbme_test_util.hpp"
+#include "video_test_util.hpp"
 
 namespace {
 
@@ -94,7 +95,7 @@ TEST(AppFaults, InsertKilledAtRandomMomentsResumesToIdenticalOutput) {
     vbme_test::RunResult r;
     const double t_ref = secondsOf([&] { r = vbme_test::run(insertCmd(in, ref_out, ref_work)); });
     ASSERT_EQ(r.code, 0) << r.output;
-    const std::vector<Mat> ref_video = videoFrames(ref_out);
+    const std::vector<Mat> ref_video = vbme_test::readVideoFrames(ref_out);
     ASSERT_EQ(ref_video.size(), 4u);
     std::printf("uninterrupted vbme insert: %.2f s\n", t_ref);
     int killed = 0;
@@ -114,7 +115,7 @@ TEST(AppFaults, InsertKilledAtRandomMomentsResumesToIdenticalOutput) {
             expectFramesComplete(work + "/frames", ref_work + "/frames",
                                  format("seed %d after the kill", seed));
             if (fs::exists(out)) {
-                const std::vector<Mat> v = videoFrames(out);
+                const std::vector<Mat> v = vbme_test::readVideoFrames(out);
                 ASSERT_EQ(v.size(), ref_video.size()) << "a partial video under " << out;
             }
         }
@@ -124,7 +125,7 @@ TEST(AppFaults, InsertKilledAtRandomMomentsResumesToIdenticalOutput) {
             r = vbme_test::run(insertCmd(in, out, work));
             ASSERT_EQ(r.code, 0) << r.output;
         }
-        const std::vector<Mat> v = videoFrames(out);
+        const std::vector<Mat> v = vbme_test::readVideoFrames(out);
         ASSERT_EQ(v.size(), ref_video.size());
         for (size_t i = 0; i < v.size(); ++i)
             EXPECT_TRUE(sameImage(v[i], ref_video[i])) << "seed " << seed << " frame " << i;
@@ -157,7 +158,7 @@ TEST(AppFaults, MaterialEditKilledLeavesNoPartialOutputAndRerunIsIdentical) {
     const std::string ref = dir / "ref.mkv";
     const double t_ref = secondsOf([&] { r = vbme_test::run(cmd(ref)); });
     ASSERT_EQ(r.code, 0) << r.output;
-    const std::vector<Mat> ref_video = videoFrames(ref);
+    const std::vector<Mat> ref_video = vbme_test::readVideoFrames(ref);
     ASSERT_EQ(ref_video.size(), 4u);
     int killed = 0;
     for (int seed : {1, 2, 3}) {
@@ -169,7 +170,7 @@ TEST(AppFaults, MaterialEditKilledLeavesNoPartialOutputAndRerunIsIdentical) {
         // nothing under the output name is partial: a kill that lands after the rename (the
         // process still tearing down, slow under sanitizers) leaves the complete video
         if (fs::exists(out)) {
-            const std::vector<Mat> v = videoFrames(out);
+            const std::vector<Mat> v = vbme_test::readVideoFrames(out);
             ASSERT_EQ(v.size(), ref_video.size()) << "a partial video under " << out;
             for (size_t i = 0; i < v.size(); ++i)
                 EXPECT_TRUE(sameImage(v[i], ref_video[i]))
@@ -178,7 +179,7 @@ TEST(AppFaults, MaterialEditKilledLeavesNoPartialOutputAndRerunIsIdentical) {
         }
         r = vbme_test::run(cmd(out));
         ASSERT_EQ(r.code, 0) << r.output;
-        const std::vector<Mat> v = videoFrames(out);
+        const std::vector<Mat> v = vbme_test::readVideoFrames(out);
         ASSERT_EQ(v.size(), ref_video.size());
         for (size_t i = 0; i < v.size(); ++i)
             EXPECT_TRUE(sameImage(v[i], ref_video[i])) << "seed " << seed << " frame " << i;
@@ -218,7 +219,8 @@ TEST(AppFaults, TwoProcessesOnOneWorkFolderRenderEachFrameOnce) {
         }
         EXPECT_EQ(rendered, 6) << tag;
         expectFramesComplete(work + "/frames", dir / "ref_work/frames", tag);
-        const std::vector<Mat> v = videoFrames(out), want = videoFrames(dir / "ref.mkv");
+        const std::vector<Mat> v = vbme_test::readVideoFrames(out),
+                               want = vbme_test::readVideoFrames(dir / "ref.mkv");
         ASSERT_EQ(v.size(), want.size()) << tag;
         for (size_t i = 0; i < v.size(); ++i)
             EXPECT_TRUE(sameImage(v[i], want[i])) << tag << " frame " << i;
@@ -236,7 +238,7 @@ TEST(AppFaults, DiskFullWhileWritingIsAClearErrorAndTheWorkFolderResumes) {
     const FaultInputs in = makeFaultInputs(dir, Size(48, 36), 3);
     auto r = vbme_test::run(insertCmd(in, dir / "ref.mkv", dir / "ref_work"));
     ASSERT_EQ(r.code, 0) << r.output;
-    const std::vector<Mat> want = videoFrames(dir / "ref.mkv");
+    const std::vector<Mat> want = vbme_test::readVideoFrames(dir / "ref.mkv");
     // limits between the sizes of the files: a frame PNG fits in `fits`, not in `tight`; the
     // per-frame EXRs (~20 float channels) and the video (all frames) do not fit in `fits`
     uintmax_t png_min = UINTMAX_MAX, png_max = 0;
@@ -264,7 +266,7 @@ TEST(AppFaults, DiskFullWhileWritingIsAClearErrorAndTheWorkFolderResumes) {
         EXPECT_FALSE(fs::exists(work + "/exr/frame_00000.exr"));  // no partial EXR
         r = vbme_test::run(insertCmd(in, out, work, "--keep-exr"));
         ASSERT_EQ(r.code, 0) << r.output;
-        const std::vector<Mat> v = videoFrames(out);
+        const std::vector<Mat> v = vbme_test::readVideoFrames(out);
         ASSERT_EQ(v.size(), want.size());
         for (size_t i = 0; i < v.size(); ++i)
             EXPECT_TRUE(sameImage(v[i], want[i])) << "frame " << i;
@@ -282,7 +284,7 @@ TEST(AppFaults, DiskFullWhileWritingIsAClearErrorAndTheWorkFolderResumes) {
         r = vbme_test::run(insertCmd(in, out, work));
         ASSERT_EQ(r.code, 0) << r.output;
         expectFramesComplete(work + "/frames", dir / "ref_work/frames", "after a full disk");
-        const std::vector<Mat> v = videoFrames(out);
+        const std::vector<Mat> v = vbme_test::readVideoFrames(out);
         ASSERT_EQ(v.size(), want.size());
         for (size_t i = 0; i < v.size(); ++i)
             EXPECT_TRUE(sameImage(v[i], want[i])) << "frame " << i;
@@ -300,7 +302,7 @@ TEST(AppFaults, DiskFullWhileWritingIsAClearErrorAndTheWorkFolderResumes) {
         r = vbme_test::run(insertCmd(in, out, work));
         ASSERT_EQ(r.code, 0) << r.output;
         EXPECT_NE(r.output.find("0 rendered, 3 already done"), std::string::npos) << r.output;
-        const std::vector<Mat> v = videoFrames(out);
+        const std::vector<Mat> v = vbme_test::readVideoFrames(out);
         ASSERT_EQ(v.size(), want.size());
         for (size_t i = 0; i < v.size(); ++i)
             EXPECT_TRUE(sameImage(v[i], want[i])) << "frame " << i;

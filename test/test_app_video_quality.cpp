@@ -33,6 +33,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "vbme_test_util.hpp"
+#include "video_test_util.hpp"
 
 namespace fs = std::filesystem;
 using namespace cv;
@@ -41,15 +42,6 @@ using namespace cv::vbme;
 namespace {
 
 const std::string kExe = VBME_EXE;
-
-std::vector<Mat> decodeAll(const std::string& source, int max_frames = 1 << 30) {
-    std::vector<Mat> v;
-    VideoReader r(source);
-    Mat f;
-    while ((int)v.size() < max_frames && r.read(f))
-        v.push_back(f.clone());
-    return v;
-}
 
 // PSNR pooled over frames, inside a region per frame.
 double pooledPsnr(const std::vector<Mat>& a, const std::vector<Mat>& truth,
@@ -89,7 +81,7 @@ void expectVideoKeepsFrames(const char* command, const std::vector<Mat>& frames,
     const size_t n = regions.size();
     ASSERT_EQ(frames.size(), n);
     ASSERT_EQ(truth.size(), n);
-    const std::vector<Mat> decoded = decodeAll(video);
+    const std::vector<Mat> decoded = vbme_test::readVideoFrames(video);
     ASSERT_EQ(decoded.size(), n);
     {
         VideoReader r(video);
@@ -125,8 +117,8 @@ TEST(AppVideoQuality, InsertVideoKeepsWhatWasRendered) {
     vbme_test::ScratchDir dir;
     const std::string data = std::string(VBME_TEST_DATA_DIR) + "/insertion_blender";
     const int n = 3;
-    const std::vector<Mat> plate = decodeAll(data + "/plate.mkv", n),
-                           truth = decodeAll(data + "/truth.mkv", n);
+    const std::vector<Mat> plate = vbme_test::readVideoFrames(data + "/plate.mkv", n),
+                           truth = vbme_test::readVideoFrames(data + "/truth.mkv", n);
     ASSERT_EQ((int)plate.size(), n);
     {
         VideoSinkOptions lossless;
@@ -189,8 +181,8 @@ TEST(AppVideoQuality, MaterialEditVideoKeepsWhatWasRendered) {
         diskMask(p.size, d, m);
         regions.push_back(m);
     }
-    expectVideoKeepsFrames("material-edit", decodeAll(dir / "frames/%05d.png"), dir / "edited.mp4",
-                           truth, regions, dir);
+    expectVideoKeepsFrames("material-edit", vbme_test::readVideoFrames(dir / "frames/%05d.png"),
+                           dir / "edited.mp4", truth, regions, dir);
 }
 
 // inpaint --video on Blender's static-camera clip (test/data/inpaint_static), its first 8
@@ -199,8 +191,8 @@ TEST(AppVideoQuality, InpaintVideoKeepsWhatWasRendered) {
     vbme_test::ScratchDir dir;
     const std::string data = std::string(VBME_TEST_DATA_DIR) + "/inpaint_static";
     const int n = 8;
-    const std::vector<Mat> input = decodeAll(data + "/frames.mkv", n),
-                           clean = decodeAll(data + "/clean.mkv", n);
+    const std::vector<Mat> input = vbme_test::readVideoFrames(data + "/frames.mkv", n),
+                           clean = vbme_test::readVideoFrames(data + "/clean.mkv", n);
     ASSERT_EQ((int)input.size(), n);
     ASSERT_EQ((int)clean.size(), n);
     fs::create_directories(dir / "masks");
@@ -226,7 +218,7 @@ TEST(AppVideoQuality, InpaintVideoKeepsWhatWasRendered) {
     ASSERT_EQ(r.code, 0) << r.output;
     r = vbme_test::run(base + (dir / "filled.mp4"));
     ASSERT_EQ(r.code, 0) << r.output;
-    expectVideoKeepsFrames("inpaint --video", decodeAll(dir / "frames/%05d.png"),
+    expectVideoKeepsFrames("inpaint --video", vbme_test::readVideoFrames(dir / "frames/%05d.png"),
                            dir / "filled.mp4", clean, holes, dir);
 }
 
@@ -270,7 +262,7 @@ void expectOverlayKeepsWhatWasDrawn(
     ASSERT_EQ(r.code, 0) << r.output;
     r = run(dir / "overlay_420.mp4", " --pix-fmt yuv420p");
     ASSERT_EQ(r.code, 0) << r.output;
-    const std::vector<Mat> drawn = decodeAll(dir / "drawn/%05d.png");
+    const std::vector<Mat> drawn = vbme_test::readVideoFrames(dir / "drawn/%05d.png");
     ASSERT_EQ(drawn.size(), n);
     std::vector<Mat> truth, marks, unmarked;
     double marked = 0;
@@ -288,8 +280,8 @@ void expectOverlayKeepsWhatWasDrawn(
     }
     marked /= (double)(n * input[0].total());
     ASSERT_GT(marked, 0.001) << "the overlay draws nothing";
-    const std::vector<Mat> v420 = decodeAll(dir / "overlay_420.mp4"),
-                           video = decodeAll(dir / "overlay.mp4");
+    const std::vector<Mat> v420 = vbme_test::readVideoFrames(dir / "overlay_420.mp4"),
+                           video = vbme_test::readVideoFrames(dir / "overlay.mp4");
     ASSERT_EQ(v420.size(), n);
     ASSERT_EQ(video.size(), n);
     const double p_drawn = pooledPsnr(drawn, truth, all), p_420 = pooledPsnr(v420, truth, all);

@@ -13,6 +13,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "vbme_test_util.hpp"
+#include "video_test_util.hpp"
 
 using namespace cv;
 using namespace cv::vbme;
@@ -595,14 +596,6 @@ TEST(CoreVideoAv, InputBitRateIsAFloorForTheDefaultQuality) {
     auto rateOf = [&](const std::string& path) {
         return (double)std::filesystem::file_size(path) * 8 / ((double)n / fps);
     };
-    auto decode = [](const std::string& path) {
-        std::vector<Mat> got;
-        VideoReader r(path);
-        Mat f;
-        while (r.read(f))
-            got.push_back(f.clone());
-        return got;
-    };
     // @p input re-encoded at the default quality, with the floor sinkOptionsFrom sets (as every
     // command does) or without it; returns the floor
     auto reencode = [&](const std::string& input, const std::string& out, bool with_floor) {
@@ -631,8 +624,9 @@ TEST(CoreVideoAv, InputBitRateIsAFloorForTheDefaultQuality) {
     reencode(tmp / "lo.mp4", tmp / "lo_crf14.mp4", false);
     const int64 floor_ll = reencode(tmp / "lossless.mkv", tmp / "ll_out.mp4", true);
 
-    const auto in_hi = decode(tmp / "hi.mp4"), out_hi = decode(tmp / "hi_out.mp4"),
-               crf14_hi = decode(tmp / "hi_crf14.mp4");
+    const auto in_hi = vbme_test::readVideoFrames(tmp / "hi.mp4"),
+               out_hi = vbme_test::readVideoFrames(tmp / "hi_out.mp4"),
+               crf14_hi = vbme_test::readVideoFrames(tmp / "hi_crf14.mp4");
     ASSERT_EQ((int)in_hi.size(), n);
     ASSERT_EQ((int)out_hi.size(), n);
     ASSERT_EQ((int)crf14_hi.size(), n);

@@ -23,6 +23,7 @@
 
 #include "insertion_blender_util.hpp"
 #include "vbme_test_util.hpp"
+#include "video_test_util.hpp"
 
 namespace {
 
@@ -31,10 +32,6 @@ using namespace cv::vbme;
 namespace fs = std::filesystem;
 
 const std::string kData = vbme_test::insertionBlenderData();
-using vbme_test::readAllFrames;
-Mat influence(const Mat& input, const Mat& truth) {
-    return vbme_test::insertionInfluence(input, truth);
-}
 
 struct Insertion {
     PreparedInsertion prep;
@@ -82,7 +79,7 @@ double regionPsnrOver(const std::vector<Mat>& comp, const std::vector<Mat>& inpu
     for (size_t k = 0; k < frames.size(); ++k) {
         const int i = frames[k];
         double s = 0, c = 0;
-        regionPsnr(comp[k], truth[i], influence(input[i], truth[i]), &s, &c);
+        regionPsnr(comp[k], truth[i], vbme_test::insertionInfluence(input[i], truth[i]), &s, &c);
         sse += s;
         n += c;
     }
@@ -100,8 +97,8 @@ TEST(PipelineInsertExposure, GainsFollowTheCameraAndTheObjectWithThem) {
     std::vector<Mat> plate, truth;
     CameraPath path = CameraPath::read(kData + "/cameras.yml");
     {
-        const std::vector<Mat> p = readAllFrames(kData + "/plate.mkv"),
-                               t = readAllFrames(kData + "/truth.mkv");
+        const std::vector<Mat> p = vbme_test::readVideoFrames(kData + "/plate.mkv"),
+                               t = vbme_test::readVideoFrames(kData + "/truth.mkv");
         ASSERT_EQ(p.size(), t.size());
         ASSERT_EQ(p.size(), path.frames.size());
         std::vector<CameraPath::Frame> kept;

@@ -20,6 +20,7 @@
 
 #include "insertion_blender_util.hpp"
 #include "vbme_test_util.hpp"
+#include "video_test_util.hpp"
 
 namespace {
 
@@ -28,10 +29,6 @@ using namespace cv::vbme;
 namespace fs = std::filesystem;
 
 const std::string kData = vbme_test::insertionBlenderData();
-using vbme_test::readAllFrames;
-Mat influence(const Mat& input, const Mat& truth) {
-    return vbme_test::insertionInfluence(input, truth);
-}
 
 // Noise level of an image on a region: the RMS over the region's pixels and the channels of
 // the residual I − G(σ = 1.5 px) * I (smooth shading cancels; the same estimator on every
@@ -81,8 +78,8 @@ protected:
         const auto t0 = std::chrono::steady_clock::now();
         s_ = new Shared;
         Shared& s = *s_;
-        s.plate = readAllFrames(kData + "/plate.mkv");
-        s.truth = readAllFrames(kData + "/truth.mkv");
+        s.plate = vbme_test::readVideoFrames(kData + "/plate.mkv");
+        s.truth = vbme_test::readVideoFrames(kData + "/truth.mkv");
         ASSERT_EQ(s.plate.size(), s.truth.size());
         fs::create_directories(s.tmp.path() / "plate");
         for (size_t t = 0; t < s.plate.size(); ++t) {
@@ -155,7 +152,7 @@ TEST_F(PipelineInsertGrain, ObjectAsNoisyAsTheRoom) {
         n_on += noiseLevel(out_on, obj) / 2;
         n_off += noiseLevel(out_off, obj) / 2;
         n_truth += noiseLevel(s_->truth_n[i], obj) / 2;
-        const Mat region = influence(s_->plate[i], s_->truth[i]);
+        const Mat region = vbme_test::insertionInfluence(s_->plate[i], s_->truth[i]);
         double s = 0, c = 0;
         regionPsnr(out_on, s_->truth_n[i], region, &s, &c);
         sse_on += s;
@@ -272,7 +269,7 @@ TEST_F(PipelineInsertGrain, MotionBlurMatchesThePan) {
     double sse_on = 0, sse_off = 0, cnt = 0, esse_on = 0, esse_off = 0, ecnt = 0;
     const int frames[] = {16};  // the fastest
     for (int i : frames) {
-        const Mat region = influence(s_->plate[i], s_->truth[i]);
+        const Mat region = vbme_test::insertionInfluence(s_->plate[i], s_->truth[i]);
         Mat on, off;
         DifferentialImages layers;
         prep.shutter = estimated;

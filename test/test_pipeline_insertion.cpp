@@ -14,6 +14,7 @@
 
 #include "test_render_util.hpp"
 #include "vbme_test_util.hpp"
+#include "video_test_util.hpp"
 
 namespace {
 
@@ -101,15 +102,6 @@ InsertionParams baseParams(const InsertInput& in, const std::string& out, const 
     return p;
 }
 
-std::vector<Mat> readVideo(const std::string& path) {
-    std::vector<Mat> v;
-    VideoReader r(path);
-    Mat f;
-    while (r.read(f))
-        v.push_back(f.clone());
-    return v;
-}
-
 bool identical(const Mat& a, const Mat& b) {
     if (a.size() != b.size() || a.type() != b.type()) return false;
     return norm(a, b, NORM_INF) == 0;
@@ -179,7 +171,8 @@ TEST_F(PipelineInsertion, ResumeAndSplitGiveIdenticalFrames) {
         const Mat fb = imread(dir / format("work_b/frames/frame_%05d.png", i), IMREAD_UNCHANGED);
         EXPECT_TRUE(identical(fa, fb)) << "frame " << i;
     }
-    const std::vector<Mat> va = readVideo(dir / "a.mkv"), vb = readVideo(dir / "b.mkv");
+    const std::vector<Mat> va = vbme_test::readVideoFrames(dir / "a.mkv"),
+                           vb = vbme_test::readVideoFrames(dir / "b.mkv");
     ASSERT_EQ(va.size(), (size_t)N);
     ASSERT_EQ(vb.size(), (size_t)N);
     for (int i = 0; i < N; ++i)
