@@ -5,7 +5,8 @@
 #   3. the GoogleTest suites through CTest,
 #   4. installs the package and builds + runs an outside project against it (find_package(vbme)),
 #   5. the test suites again in an AddressSanitizer + UndefinedBehaviorSanitizer build
-#      (VBME_SKIP_SANITIZE=1 skips this step).
+#      (VBME_SKIP_SANITIZE=1 skips this step; the slow end-to-end tests listed in
+#      test/sanitizer_skip.txt run only in the Release step).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -32,8 +33,11 @@ if [ "${VBME_SKIP_SANITIZE:-0}" != 1 ]; then
   cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVBME_SANITIZE=ON \
         -DVBME_BUILD_PERF=OFF -DVBME_BUILD_SAMPLES=OFF
   cmake --build build-asan -j "$jobs"
+  # test/sanitizer_skip.txt lists the slow end-to-end tests that run only in the Release run,
+  # with why their code is still covered here.
+  skip=$(grep -v '^[[:space:]]*\(#\|$\)' test/sanitizer_skip.txt | sed 's/[.]/[.]/g; s/.*/^&$/' | paste -sd'|')
   ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-    ctest --test-dir build-asan -j "$jobs" --output-on-failure --timeout 900
+    ctest --test-dir build-asan -j "$jobs" --output-on-failure --timeout 900 -E "$skip"
 fi
 
 stamp "tests (Release)"
