@@ -148,8 +148,8 @@ margin of half its size; segments coloured by the estimated world axis (x red, y
 blue, outliers grey); true vanishing points as rings and true horizon white, estimated
 vanishing points as crosses and estimated horizon yellow (points outside the canvas are drawn
 at its border). */
-void dumpOverlay(const std::string& dir, const Truth& t, const Mat& img,
-                 const FrameCalibration& c) {
+void dumpOverlay(const std::string& dir, const Truth& t, const Mat& img, const FrameCalibration& c,
+                 bool found = true) {
     const int mx = img.cols / 2, my = img.rows / 2;
     Mat ov(img.rows + 2 * my, img.cols + 2 * mx, CV_8UC3, Scalar(40, 40, 40));
     img.copyTo(ov(Rect(mx, my, img.cols, img.rows)));
@@ -186,12 +186,12 @@ void dumpOverlay(const std::string& dir, const Truth& t, const Mat& img,
     };
     const Matx33d Kt(t.f, 0, t.c.x, 0, t.f, t.c.y, 0, 0, 1);
     horizon(Kt, t.R, Scalar(255, 255, 255));
-    horizon(c.K, c.R, Scalar(0, 255, 255));
+    if (found) horizon(c.K, c.R, Scalar(0, 255, 255));
     for (int a = 0; a < 3; ++a) {
         const Vec3d tv = Kt * Vec3d(t.R(0, a), t.R(1, a), t.R(2, a));
         circle(ov, clampPt(tv), 9, col[a + 1], 2, LINE_AA);
         circle(ov, clampPt(tv), 11, Scalar(255, 255, 255), 1, LINE_AA);
-        drawMarker(ov, clampPt(c.vanishing_points[a]), col[a + 1], MARKER_CROSS, 22, 3);
+        if (found) drawMarker(ov, clampPt(c.vanishing_points[a]), col[a + 1], MARKER_CROSS, 22, 3);
     }
     putText(ov,
             format("f true %.0f est %.0f (%.1f %%) conf %.2f  segs %d", t.f, c.focal(),
@@ -249,6 +249,15 @@ const Results& results() {
                 }
             } catch (const cv::Exception& e) {
                 og.error = e.err;
+                if (const char* dump = std::getenv("VBME_CALIB_ROOMS_DUMP")) {
+                    // No frame: the detected segments alone (grey), the truth drawn as usual.
+                    FrameCalibration none;
+                    none.K = Matx33d(t.f, 0, t.c.x, 0, t.f, t.c.y, 0, 0, 1);
+                    none.R = t.R;
+                    cal_g->detectSegments(img, none.segments);
+                    none.labels.assign(none.segments.size(), -1);
+                    dumpOverlay(std::string(dump), t, img, none, false);
+                }
             }
             Outcome op;
             try {
