@@ -2,7 +2,8 @@
 // DevTools protocol by puppeteer-core (no browser download). On a synthetic room frame with a
 // known camera it draws two line groups, room points and a light with real mouse events,
 // reads the live focal length from the page, saves, and checks `vbme calibrate --annotation`
-// on the saved file against the truth: focal within 1 %, every box face within 2 cm.
+// on the saved file against the truth: focal within 1 %, every box face within 2 cm. On a
+// Blender render with several Manhattan-frame proposals it chooses the second in the list.
 //
 //   node annotate.test.mjs --vbme <vbme> --fixture <vbme_test_annotate_fixture> --artefacts <dir>
 //
@@ -44,20 +45,28 @@ const annPath = path.join(art, 'annotation.yml'), scenePath = path.join(art, 'sc
 const failures = [];
 const check = (ok, what) => { log(`${ok ? 'ok  ' : 'FAIL'} ${what}`); if (!ok) failures.push(what); };
 
-// The server.
-const server = spawn(args.vbme, ['annotate', '--video', path.join(art, 'frames'), '--out', annPath, '--scene-out', scenePath,
-  '--object', path.join(art, 'cube.obj')], { stdio: ['ignore', 'pipe', 'pipe'] });
-let serverOut = '';
-server.stderr.on('data', (d) => { serverOut += d; });
-const url = await new Promise((resolve, reject) => {
-  const timer = setTimeout(() => reject(new Error('vbme annotate printed no URL in 20 s:\n' + serverOut)), 20000);
-  server.stdout.on('data', (d) => {
-    serverOut += d;
-    const m = /open (http:\/\/127\.0\.0\.1:\d+\/[0-9a-f]+\/)/.exec(serverOut);
-    if (m) { clearTimeout(timer); resolve(m[1]); }
+// A `vbme annotate` server; resolves with its address once it prints it.
+const servers = [];
+async function startServer(argv) {
+  const proc = spawn(args.vbme, ['annotate', ...argv], { stdio: ['ignore', 'pipe', 'pipe'] });
+  servers.push(proc);
+  let out = '';
+  proc.stderr.on('data', (d) => { out += d; });
+  const url = await new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error('vbme annotate printed no URL in 30 s:\n' + out)), 30000);
+    proc.stdout.on('data', (d) => {
+      out += d;
+      const m = /open (http:\/\/127\.0\.0\.1:\d+\/[0-9a-f]+\/)/.exec(out);
+      if (m) { clearTimeout(timer); resolve(m[1]); }
+    });
+    proc.on('exit', (code) => reject(new Error(`vbme annotate exited (${code}):\n${out}`)));
   });
-  server.on('exit', (code) => reject(new Error(`vbme annotate exited (${code}):\n${serverOut}`)));
-});
+  return { proc, url };
+}
+
+// The server.
+const { proc: server, url } = await startServer(['--video', path.join(art, 'frames'), '--out', annPath, '--scene-out', scenePath,
+  '--object', path.join(art, 'cube.obj')]);
 log('server at', url.replace(/[0-9a-f]{32}/, '<token>'));
 
 const userDataDir = fs.mkdtempSync(path.join(os.tmpdir(), 'vbme-chromium-'));
@@ -199,6 +208,46 @@ try {
   const sceneText = fs.readFileSync(scenePath, 'utf8');
   check(/--place/.test(placedStatus) && /objects:/.test(sceneText) && /cube\.obj/.test(sceneText), `save with the object: the scene has objects: and the page says ${JSON.stringify(placedStatus.split('\n').pop())}`);
 
+  // Ranked proposals, on a Blender render of a corridor (test/data/calib_rooms/room_007.jpg)
+  // where automatic detection finds several Manhattan frames: the page lists them with their
+  // focal lengths and confidences as the server ranks them; choosing the second regroups the
+  // suggested segments by that frame, and the line groups filled from it calibrate to it.
+  const propDir = path.join(art, 'proposals_frames');
+  fs.mkdirSync(propDir, { recursive: true });
+  fs.copyFileSync(path.join(here, '..', 'data', 'calib_rooms', 'room_007.jpg'), path.join(propDir, '00000.jpg'));
+  const trueF = +fs.readFileSync(path.join(here, '..', 'data', 'calib_rooms', 'truth.csv'), 'utf8').split('\n').find((l) => l.startsWith('room_007.jpg,')).split(',')[4];
+  const second = await startServer(['--video', propDir, '--out', path.join(art, 'proposals_annotation.yml')]);
+  const page2 = await browser.newPage();
+  page2.on('pageerror', (e) => failures.push('page error (proposals): ' + e.message));
+  await page2.goto(second.url);
+  await page2.waitForSelector('body[data-ready="1"]', { timeout: 30000 });
+  await page2.waitForSelector('body[data-suggestions]', { timeout: 30000 });
+  const props = (await page2.evaluate(async () => (await fetch('api/suggestions?i=0')).json())).proposals;
+  const listed = await page2.$$eval('#proposals button.proposal', (bs) => bs.map((b) => b.textContent));
+  log('proposals listed:', JSON.stringify(listed));
+  if (props.length < 2) throw new Error(`room_007.jpg: ${props.length} proposal(s), the test needs two`);
+  check(listed.length === props.length && props.every((p, k) => listed[k].includes(p.focal.toFixed(0)) && listed[k].includes(p.confidence.toFixed(2))) &&
+        props.every((p, k) => k === 0 || p.confidence <= props[k - 1].confidence),
+        `the page lists the ${props.length} proposals in the server's order, each with its focal length and confidence (${props.map((p) => `${p.focal.toFixed(1)} px / ${p.confidence.toFixed(3)}`).join(', ')})`);
+  const preselected = await page2.evaluate(() => document.body.dataset.proposal);
+  await page2.click('#proposals button.proposal[data-index="1"]');
+  await page2.waitForSelector('body[data-proposal="1"]', { timeout: 10000 });
+  const axes = await page2.evaluate(() => window.vbmeAnnotate.state.suggestions.map((sg) => sg.axis));
+  const changedAxes = axes.filter((a, i) => a !== props[0].axes[i]).length;
+  check(axes.length === props[1].axes.length && axes.every((a, i) => a === props[1].axes[i]) && changedAxes > 0,
+        `choosing the second proposal (preselected: ${preselected}) regroups the suggestions by its frame (${changedAxes} of ${axes.length} segments change axis)`);
+  await page2.screenshot({ path: path.join(art, '7_second_proposal.png') });
+  await page2.click('#use-suggestions');
+  await page2.waitForFunction(() => !document.body.dataset.calibrating && +document.body.dataset.calibrated >= window.vbmeAnnotate.state.calibrating &&
+                                    document.getElementById('focal').dataset.value !== '', { timeout: 30000 });
+  const fLive = await page2.$eval('#focal', (e) => +e.dataset.value);
+  const groups = await page2.evaluate(() => window.vbmeAnnotate.state.ann.lines.map((g) => `${g.name}: ${g.segments.length}`));
+  check(Math.abs(Math.log(fLive / props[1].focal)) < Math.abs(Math.log(fLive / props[0].focal)),
+        `the groups filled from it (${groups.join(', ')}) calibrate to its frame: focal ${fLive.toFixed(1)} px on the page, proposal 2 ${props[1].focal.toFixed(1)} px, proposal 1 ${props[0].focal.toFixed(1)} px (true ${trueF.toFixed(1)} px)`);
+  await page2.screenshot({ path: path.join(art, '8_second_proposal_groups.png') });
+  await page2.close();
+  second.proc.kill('SIGTERM');
+
   // The saved file through `vbme calibrate` (the page and its background renders stopped).
   await browser.close();
   server.kill('SIGTERM');
@@ -219,7 +268,7 @@ try {
   failures.push(String(e));
 } finally {
   await browser.close();
-  server.kill('SIGTERM');
+  for (const p of servers) p.kill('SIGTERM');
   fs.rmSync(userDataDir, { recursive: true, force: true });
 }
 log(`screenshots in ${art}`);

@@ -407,23 +407,25 @@ AnnotateReply AnnotateSession::suggestions(const AnnotateRequest& r) const {
         if (c != suggestion_cache_.end()) return {200, "application/json", c->second};
     }
     auto cal = VanishingPointCalibrator::create();
-    json j{{"segments", json::array()}, {"warnings", json::array()}};
+    json j{{"segments", json::array()},
+           {"warnings", json::array()},
+           {"proposals", json::array()},
+           {"selected", -1}};
     try {
-        // Ranked Manhattan frames; the first is what detect() returns (and is refused below
-        // the same confidence).
+        // Ranked Manhattan frames, all offered to the user (the page lists them and regroups
+        // the segments by the one chosen). The first is what detect() returns; below the same
+        // minimum confidence it is not preselected: the segments stay ungrouped until the user
+        // chooses a proposal or draws the lines.
         const auto props = detectManhattanProposals(f, cal->params(), 3);
         const FrameCalibration& fc = props[0].calibration;
-        if (fc.confidence < cal->params().min_confidence)
-            CV_Error(cv::Error::StsError,
-                     cv::format("automatic detection is not confident (%.2f < %.2f)", fc.confidence,
-                                cal->params().min_confidence));
+        const bool confident = fc.confidence >= cal->params().min_confidence;
         for (size_t i = 0; i < fc.segments.size(); ++i) {
             const cv::Vec4f& s = fc.segments[i];
-            j["segments"].push_back({{"s", {s[0], s[1], s[2], s[3]}}, {"axis", fc.labels[i]}});
+            j["segments"].push_back(
+                {{"s", {s[0], s[1], s[2], s[3]}}, {"axis", confident ? fc.labels[i] : -1}});
         }
         j["focal"] = fc.focal();
         j["confidence"] = fc.confidence;
-        j["proposals"] = json::array();
         for (const auto& p : props)
             j["proposals"].push_back({{"focal", p.calibration.focal()},
                                       {"focal_rel_sigma", p.calibration.focal_rel_sigma},
@@ -431,6 +433,13 @@ AnnotateReply AnnotateSession::suggestions(const AnnotateRequest& r) const {
                                       {"ambiguous", p.ambiguous},
                                       {"note", p.note},
                                       {"axes", p.calibration.labels}});
+        if (confident)
+            j["selected"] = 0;
+        else
+            j["warnings"].push_back(cv::format(
+                "automatic detection is not confident (%.2f < %.2f): the segments are shown "
+                "ungrouped; choose one of the proposals or draw the lines",
+                fc.confidence, cal->params().min_confidence));
     } catch (const cv::Exception& e) {
         std::vector<cv::Vec4f> segs;
         cal->detectSegments(f, segs);

@@ -14,7 +14,9 @@ const state = {
   activeGroup: 0,
   activeLight: -1,        // light polygon being drawn
   tool: 'line',
-  suggestions: [],        // [{s: [x1,y1,x2,y2], axis}]
+  suggestions: [],        // [{s: [x1,y1,x2,y2], axis}]: axis in the chosen proposal's frame
+  proposals: [],          // ranked Manhattan frames {focal, focal_rel_sigma, confidence, ambiguous, note, axes}
+  proposal: -1,           // the chosen one (-1: none, the suggestions are ungrouped)
   feedback: null,
   view: { s: 1, ox: 0, oy: 0 },
   undo: [], redo: [],
@@ -587,6 +589,39 @@ window.addEventListener('keydown', (e) => {
 window.addEventListener('keyup', (e) => { if (e.key === ' ') state.space = false; });
 window.addEventListener('resize', fit);
 
+/** Lists the ranked Manhattan-frame proposals; clicking one regroups the suggestions by it. */
+function renderProposals() {
+  const div = $('proposals');
+  div.innerHTML = '';
+  state.proposals.forEach((p, k) => {
+    const b = document.createElement('button');
+    b.className = 'proposal' + (k === state.proposal ? ' active' : '');
+    b.dataset.index = k;
+    const n = [0, 0, 0];
+    for (const a of p.axes) if (a >= 0) n[a] += 1;
+    b.innerHTML = `${k + 1}. focal <b>${p.focal.toFixed(0)}</b> px ±${(100 * p.focal_rel_sigma).toFixed(1)} %` +
+      ` · confidence <b>${p.confidence.toFixed(2)}</b>${p.ambiguous ? ' · <span class="amb">ambiguous</span>' : ''}` +
+      `<span class="res"> x/y/z ${n.join('/')} segments</span>`;
+    if (p.note) { const note = document.createElement('span'); note.className = 'note'; note.textContent = p.note; b.appendChild(note); }
+    b.title = 'Group the suggested segments by this Manhattan frame';
+    b.addEventListener('click', () => chooseProposal(k));
+    div.appendChild(b);
+  });
+  if (!state.proposals.length) div.textContent = 'no Manhattan frame found automatically';
+  document.body.dataset.proposal = String(state.proposal);
+}
+
+/** Regroups the suggested segments by proposal @p k (their axes in that frame). */
+function chooseProposal(k) {
+  const p = state.proposals[k];
+  if (!p || p.axes.length !== state.suggestions.length) return;
+  state.proposal = k;
+  state.suggestions.forEach((sg, i) => { sg.axis = p.axes[i]; });
+  status(`proposal ${k + 1}: focal ${p.focal.toFixed(1)} px, confidence ${p.confidence.toFixed(2)}; Use suggestions fills the line groups from it`);
+  renderProposals();
+  draw();
+}
+
 /** Fills one group per detected direction with its longest suggested segments. */
 function useSuggestions() {
   const byAxis = [[], [], []];
@@ -617,8 +652,14 @@ async function loadFrame(i) {
   if (i !== 0) status(`frame ${i}: 'vbme insert' reads the scene as frame 0's; calibrate this one with 'vbme calibrate --video … --frame ${i}'`);
   fit();
   state.suggestions = [];
+  state.proposals = [];
+  state.proposal = -1;
+  renderProposals();
   api(`suggestions?i=${i}`).then((s) => {
     state.suggestions = s.segments;
+    state.proposals = s.proposals || [];
+    state.proposal = s.selected ?? -1;
+    renderProposals();
     if (s.warnings.length) status(s.warnings.join('\n'));
     document.body.dataset.suggestions = String(s.segments.length);
     draw();
