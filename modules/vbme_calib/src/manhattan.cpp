@@ -633,21 +633,43 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Siz
         CV_Error(Error::StsError,
                  "automatic detection found no pair of orthogonal vanishing points with a "
                  "plausible focal length; annotate the lines by hand or give the focal length");
-    // Distinct frames, refined, re-ranked.
-    std::vector<Frame> frames;
-    const int n_refine = max_proposals + 2;
-    for (const auto& h : hyp) {
-        bool dup = false;
-        for (const auto& f : frames)
-            if (sameFrame(h, f)) {
-                dup = true;
-                break;
-            }
-        if (!dup) frames.push_back(h);
-        if ((int)frames.size() >= n_refine) break;
+    // Distinct frames, refined, re-ranked. A refined frame is refused below when its second
+    // direction has fewer than 3 segments or its focal length is implausible; when every frame
+    // of a batch is refused, the next distinct hypotheses are refined too (at most 4 batches),
+    // so that refused frames scoring best do not hide a valid one further down.
+    auto plausible = [&](const Frame& fr) {
+        setKappa(segs, fr.kappa);
+        std::vector<int> labels;
+        scoreFrame(segs, fr, &labels);
+        int support[3] = {0, 0, 0};
+        for (int l : labels)
+            if (l >= 0) support[l]++;
+        std::sort(support, support + 3);
+        return support[1] >= 3 && fr.F >= p.min_focal && fr.F <= p.max_focal;
+    };
+    std::vector<Frame> frames, picked;
+    const int batch = max_proposals + 2, max_batches = 4;
+    size_t next = 0;
+    for (int b = 0; b < max_batches && next < hyp.size(); ++b) {
+        const size_t first = frames.size();
+        for (; next < hyp.size() && (int)(frames.size() - first) < batch; ++next) {
+            bool dup = false;
+            for (const auto& f : picked)
+                if (sameFrame(hyp[next], f)) {
+                    dup = true;
+                    break;
+                }
+            if (dup) continue;
+            picked.push_back(hyp[next]);
+            frames.push_back(hyp[next]);
+        }
+        bool any = false;
+        for (size_t k = first; k < frames.size(); ++k) {
+            refineFrame(segs, frames[k], p, W, p.estimate_distortion);
+            any = any || plausible(frames[k]);
+        }
+        if (any) break;
     }
-    for (auto& f : frames)
-        refineFrame(segs, f, p, W, p.estimate_distortion);
     std::sort(frames.begin(), frames.end(),
               [](const Frame& x, const Frame& y) { return x.score > y.score; });
     // Refinement can bring two hypotheses onto one frame.
