@@ -35,9 +35,11 @@ void RemovalFill::finish() {
     ci_->finish();
 }
 
-bool RemovalFill::pop(FrameItem& it, Mat& filled) {
+bool RemovalFill::pop(FrameItem& it, Mat& filled, Mat* shadow) {
     ConsensusInpainter::FrameStats st;
-    if (!ci_->pop(filled, &st)) return false;
+    Mat sh;
+    if (!(shadow ? ci_->pop(filled, &st, sh) : ci_->pop(filled, &st))) return false;
+    if (shadow) *shadow = sh;
     it = std::move(q_.front());
     q_.pop_front();
     temporal += st.temporal + st.previous;

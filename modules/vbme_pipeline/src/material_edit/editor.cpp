@@ -99,10 +99,11 @@ public:
     bool pop(OutputArray edited, OutputArray background, OutputArray hole,
              OutputArray environment) override {
         FrameItem it;
-        Mat filled;
+        Mat filled, shadow_mask;
+        const bool recast = p_.shadows == SHADOWS_REMOVE;
         {
             ScopedTimer t(sec(INPAINTING));
-            if (!fill_.pop(it, filled)) return false;
+            if (!fill_.pop(it, filled, recast ? &shadow_mask : nullptr)) return false;
         }
         Point2f c = it.center;
         float r = it.radius;
@@ -163,6 +164,28 @@ public:
         res.to_light = Vec3d(fit.to_light[0], fit.to_light[1], fit.to_light[2]);
         res.fit_rms = fit.rms;
         res.albedo = Vec3d(fit.albedo[0], fit.albedo[1], fit.albedo[2]);
+        // With shadows "remove" the original shadow is gone from the fill: the new object
+        // casts one fitting its material, measured from the original (shadow.cpp).
+        CastShadow cs;
+        Mat shadowed = filled;
+        if (recast) {
+            ScopedTimer t(sec(RENDERING));
+            const ConsensusInpainter::Params cp;
+            if (measureCastShadow(it.frame, p_.response, bg_lin_, shadow_mask, it.hole, c, r,
+                                  cp.shadow_smooth, cs)) {
+                res.shadow_offset = Vec2f(cs.offset.x, cs.offset.y);
+                Mat atten;
+                if (shadowKindOf(p_.material) == SHADOW_GLASS)
+                    glassShadow(cs, c, p_.material, atten);
+                else
+                    atten = cs.atten;
+                castShadow(cs, atten, bg_lin_);
+                Mat enc;
+                encode(bg_lin_(cs.roi), enc, p_.response, CV_8U);
+                shadowed = filled.clone();
+                enc.copyTo(shadowed(cs.roi), cs.region);
+            }
+        }
         results_.push_back(res);
         {
             ScopedTimer t(sec(RENDERING));
@@ -171,7 +194,7 @@ public:
         Mat out8;
         {
             ScopedTimer t(sec(COMPOSITING));
-            compositeObject(filled, rendered_, box, p_.response, out8);
+            compositeObject(shadowed, rendered_, box, p_.response, out8);
         }
         edited.assign(out8);
         if (background.needed()) background.assign(filled);

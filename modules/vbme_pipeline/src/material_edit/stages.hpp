@@ -6,6 +6,7 @@
 //   environment.cpp  the environment map built from the filled frame
 //   lighting.cpp     the key light and ambient fitted to the original object's shading
 //   rendering.cpp    the object re-rendered in the new material
+//   shadow.cpp       the original object's cast shadow measured, and re-cast for the new material
 //   compositing.cpp  the rendered object put into the filled frame
 //   editor.cpp       MaterialEditor: the stages joined per frame
 //   params.cpp       MaterialEditParams: check, read, write
@@ -78,7 +79,9 @@ public:
     explicit RemovalFill(const MaterialEditParams& p);
     void push(FrameItem&& it);
     void finish();
-    bool pop(FrameItem& it, Mat& filled);
+    /** The next frame's item and fill; @p shadow (if not null) receives the CV_8U map of
+    the frame's own shadow pixels the fill removed (empty with shadows "keep"). */
+    bool pop(FrameItem& it, Mat& filled, Mat* shadow = nullptr);
     int temporal = 0, exemplar = 0;
 
 private:
@@ -106,6 +109,43 @@ LightingFit fitObjectLighting(const Mat& object_linear, const Mat& normals, cons
 void renderObject(const MaterialEditParams& p, const Mat& background_linear, Point2f center,
                   float radius, double focal, const LightingFit& fit, const EnvironmentMap& env,
                   Mat& rendered);
+
+// ---- shadow.cpp
+
+/** How the new object's shadow is made from the original one. */
+enum ShadowKind {
+    SHADOW_OPAQUE = 0,  //!< the original attenuation (opaque materials, chrome)
+    SHADOW_GLASS = 1    //!< lighter, with a caustic core (dielectrics)
+};
+/** The kind of shadow @p m casts. */
+ShadowKind shadowKindOf(const Material& m);
+
+/** The original object's cast shadow, measured against the filled background. */
+struct CastShadow {
+    bool found = false;
+    Rect roi;                 //!< where atten and region lie (frame pixels)
+    Mat atten;                //!< CV_32FC3 linear attenuation (1 = unshadowed) over roi
+    Mat region;               //!< CV_8U over roi: the pixels the shadow may change
+    Point2f offset;           //!< deficit-weighted centroid of the shadow outside the disk − the
+                              //!< disk's centre (pixels): points away from the key light
+    double deficit_area = 0;  //!< Σ (1 − mean attenuation) outside the disk (pixels)
+};
+
+/** Measures the attenuation frame (8-bit, linearised by @p response) / fill (linear) over the
+detected shadow @p shadow_mask (ConsensusInpainter's) grown by 2⌈@p smooth⌉ + 1 px for the
+penumbra (@p smooth: ConsensusInpainter::Params::shadow_smooth), denoised (3×3 median, Gaussian
+σ = 0.5 px) and completed into the @p hole from around it by normalised convolution. False when
+there is no shadow. */
+bool measureCastShadow(const Mat& frame8, Response response, const Mat& filled_lin,
+                       const Mat& shadow_mask, const Mat& hole, Point2f center, float radius,
+                       double smooth, CastShadow& out);
+/** A glass ball's attenuation from the opaque one: the light of the shadow's deficit that the
+sphere transmits ((1 − F̄)², F̄ the mean Fresnel reflectance of @p m's index) goes 70 % into a
+Gaussian caustic core beyond the shadow's centroid (away from the key light) and 30 % back
+over the shadow; tinted by the material's absorption over 0.1 m. */
+void glassShadow(const CastShadow& s, Point2f center, const Material& m, Mat& atten);
+/** Multiplies @p background_lin by @p atten (over s.roi) on s.region. */
+void castShadow(const CastShadow& s, const Mat& atten, Mat& background_lin);
 
 // ---- compositing.cpp
 

@@ -82,7 +82,10 @@ struct CV_EXPORTS MaterialEditParams {
     int lookahead = 8;
     /** The original object's cast shadow: SHADOWS_KEEP (the new object is rendered without a
     shadow of its own, so the original one stays) or SHADOWS_REMOVE (detected near the object
-    and re-lit, ConsensusInpainter::Params::shadows). */
+    and removed, ConsensusInpainter::Params::shadows; the new object then casts a shadow fitting
+    its material, estimated from the original one: the same attenuation for opaque materials
+    and chrome, a lighter shadow with a caustic core away from the key light for glass; see
+    doc/vbme_pipeline_material_edit.md). */
     ShadowMode shadows = SHADOWS_KEEP;
     Size env_size = Size(256, 128);      //!< size of the per-frame environment maps
     Response response = Response::SRGB;  //!< camera response of the video
@@ -140,6 +143,10 @@ public:
         Vec3d to_light;  //!< key light direction used (camera coordinates, unit)
         double fit_rms = 0;  //!< RMS residual of the lighting fit (linear)
         Vec3d albedo;        //!< estimated albedo of the original object (RGB)
+        /** With shadows "remove": the original shadow's deficit-weighted centroid minus the
+        disk's centre (pixels; it points away from the key light in the image), zero when no
+        shadow was found or with shadows "keep". */
+        Vec2f shadow_offset;
     };
 
     /** @brief Starts an edit.

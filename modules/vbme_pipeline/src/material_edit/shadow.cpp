@@ -1,0 +1,282 @@
+// This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
+// Material edit, shadow stage (with shadows "remove"): the original object's cast shadow is
+// measured as an attenuation map (original frame / filled background, linear) and the new
+// object casts a shadow fitting its material: the same map for opaque materials and chrome, a
+// lighter shadow with a caustic core for glass. What is approximated:
+// doc/vbme_pipeline_material_edit.md, "The new object's shadow".
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "stages.hpp"
+
+namespace cv {
+namespace vbme {
+namespace material_edit {
+
+namespace {
+
+const double kAttenSigma = 0.5;  // the attenuation's Gaussian (pixels), after a 3×3 median
+
+/** Normalised convolution of @p A (weights @p W) filling, coarse to fine, the pixels of
+@p need that the finer scales could not reach. */
+void fillByNormalisedConvolution(Mat& A, const Mat& W, const Mat& need, double sigma0,
+                                 double sigmaMax) {
+    Mat todo = need.clone();
+    for (double s = sigma0; countNonZero(todo) > 0; s *= 2) {
+        Mat AW, Wb;
+        std::vector<Mat> ch;
+        split(A, ch);
+        for (Mat& c : ch) {
+            Mat cw = c.mul(W);
+            GaussianBlur(cw, c, Size(0, 0), s);
+        }
+        merge(ch, AW);
+        GaussianBlur(W, Wb, Size(0, 0), s);
+        const bool last = s * 2 > sigmaMax;
+        for (int y = 0; y < A.rows; ++y) {
+            uchar* td = todo.ptr<uchar>(y);
+            const float* wb = Wb.ptr<float>(y);
+            const Vec3f* aw = AW.ptr<Vec3f>(y);
+            Vec3f* a = A.ptr<Vec3f>(y);
+            for (int x = 0; x < A.cols; ++x) {
+                if (!td[x]) continue;
+                if (wb[x] > 0.05f || (last && wb[x] > 1e-6f)) {
+                    a[x] = aw[x] / wb[x];
+                    td[x] = 0;
+                } else if (last) {
+                    a[x] = Vec3f(1, 1, 1);
+                    td[x] = 0;
+                }
+            }
+        }
+        if (last) break;
+    }
+}
+
+/** Hemispherical average of the unpolarised Fresnel reflectance of a dielectric of index
+@p ior seen from air (cosine-weighted), by a midpoint sum. */
+double meanFresnel(double ior) {
+    const int n = 256;
+    double sum = 0;
+    for (int i = 0; i < n; ++i) {
+        const double ci = (i + 0.5) / n;  // cos θi, uniform in cos² with the weight 2 cos θ dcos
+        const double si2 = std::max(0.0, 1 - ci * ci), st2 = si2 / (ior * ior);
+        const double ct = std::sqrt(std::max(0.0, 1 - st2));
+        const double rs = (ci - ior * ct) / (ci + ior * ct), rp = (ior * ci - ct) / (ior * ci + ct);
+        sum += 0.5 * (rs * rs + rp * rp) * 2 * ci / n;
+    }
+    return sum;
+}
+
+}  // namespace
+
+ShadowKind shadowKindOf(const Material& m) {
+    return m.type == Material::DIELECTRIC ? SHADOW_GLASS : SHADOW_OPAQUE;
+}
+
+bool measureCastShadow(const Mat& frame8, Response response, const Mat& filled_lin,
+                       const Mat& shadow_mask, const Mat& hole, Point2f center, float radius,
+                       double smooth, CastShadow& out) {
+    out = CastShadow();
+    if (shadow_mask.empty() || countNonZero(shadow_mask) == 0) return false;
+    const Size size = frame8.size();
+    // The region: the detected shadow grown to take in the penumbra, and the hole (whose
+    // pixels were the object's: its part of the shadow is completed from around it).
+    const int rim = 2 * (int)std::ceil(smooth) + 1;
+    Mat D;
+    dilate(shadow_mask, D, getStructuringElement(MORPH_ELLIPSE, Size(2 * rim + 1, 2 * rim + 1)));
+    // Only the parts of it that reach the object (half a radius beyond the hole): a ball's
+    // cast shadow touches it where it stands; darker patches further away are the fill's
+    // (misaligned texture), not the object's.
+    {
+        Mat near, labels;
+        const int g = std::max(1, (int)std::ceil(0.5 * radius));
+        dilate(hole, near, getStructuringElement(MORPH_ELLIPSE, Size(2 * g + 1, 2 * g + 1)));
+        const int n = connectedComponents(D, labels, 8, CV_32S);
+        std::vector<uchar> touches(n, 0);
+        for (int y = 0; y < D.rows; ++y) {
+            const int* l = labels.ptr<int>(y);
+            const uchar* nr = near.ptr<uchar>(y);
+            for (int x = 0; x < D.cols; ++x)
+                if (l[x] > 0 && nr[x]) touches[l[x]] = 1;
+        }
+        for (int y = 0; y < D.rows; ++y) {
+            const int* l = labels.ptr<int>(y);
+            uchar* d = D.ptr<uchar>(y);
+            for (int x = 0; x < D.cols; ++x)
+                if (d[x] && !touches[l[x]]) d[x] = 0;
+        }
+        if (countNonZero(D) == 0) return false;
+    }
+    Mat region = D | hole;
+    const int pad = 3 * (int)std::ceil(smooth) + 2;
+    Rect roi = boundingRect(region);
+    roi = Rect(roi.x - pad, roi.y - pad, roi.width + 2 * pad, roi.height + 2 * pad) &
+          Rect(Point(), size);
+    Mat Ir;
+    linearize(frame8(roi), Ir, response);
+    const Mat Dr = D(roi), Hr = hole(roi), Br = filled_lin(roi);
+    // The attenuation frame / background on the grown shadow, 1 elsewhere; weight 0 in the
+    // hole.
+    Mat A(roi.size(), CV_32FC3, Scalar::all(1)), W(roi.size(), CV_32F, Scalar(1));
+    for (int y = 0; y < roi.height; ++y) {
+        const uchar* d = Dr.ptr<uchar>(y);
+        const uchar* h = Hr.ptr<uchar>(y);
+        const Vec3f* i = Ir.ptr<Vec3f>(y);
+        const Vec3f* b = Br.ptr<Vec3f>(y);
+        Vec3f* a = A.ptr<Vec3f>(y);
+        float* w = W.ptr<float>(y);
+        for (int x = 0; x < roi.width; ++x) {
+            if (h[x]) {
+                a[x] = Vec3f(0, 0, 0);
+                w[x] = 0;
+                continue;
+            }
+            if (!d[x]) continue;
+            for (int c = 0; c < 3; ++c)
+                a[x][c] = std::min(1.f, std::max(0.02f, (i[x][c] + 1e-4f) / (b[x][c] + 1e-4f)));
+        }
+    }
+    // Denoised lightly (a 3×3 median, then a Gaussian of σ = kAttenSigma by normalised
+    // convolution): the frame's noise and the fill's texture mismatch are not the shadow, but
+    // a contact shadow's edge is sharp (σ = 2 px lost 10 dB against the footage on the Blender
+    // clip, doc/vbme_pipeline_material_edit.md).
+    {
+        Mat Am;
+        medianBlur(A, Am, 3);
+        for (int y = 0; y < roi.height; ++y) {
+            const uchar* d = Dr.ptr<uchar>(y);
+            const uchar* h = Hr.ptr<uchar>(y);
+            const Vec3f* am = Am.ptr<Vec3f>(y);
+            Vec3f* a = A.ptr<Vec3f>(y);
+            for (int x = 0; x < roi.width; ++x)
+                if (d[x] && !h[x]) a[x] = am[x];
+        }
+        std::vector<Mat> ch;
+        split(A, ch);
+        for (Mat& c : ch) {
+            Mat cw = c.mul(W);
+            GaussianBlur(cw, c, Size(0, 0), kAttenSigma);
+        }
+        Mat Wb;
+        GaussianBlur(W, Wb, Size(0, 0), kAttenSigma);
+        Mat AW;
+        merge(ch, AW);
+        for (int y = 0; y < roi.height; ++y) {
+            const uchar* d = Dr.ptr<uchar>(y);
+            const uchar* h = Hr.ptr<uchar>(y);
+            const float* wb = Wb.ptr<float>(y);
+            const Vec3f* aw = AW.ptr<Vec3f>(y);
+            Vec3f* a = A.ptr<Vec3f>(y);
+            for (int x = 0; x < roi.width; ++x)
+                if (d[x] && !h[x] && wb[x] > 1e-3f) a[x] = aw[x] / wb[x];
+        }
+    }
+    // The hole: completed from its surroundings (the object's contact shadow continues under
+    // its margin).
+    Mat Wk = W.clone();
+    fillByNormalisedConvolution(A, Wk, Hr, 2.0, std::max(4.0, (double)radius));
+    out.roi = roi;
+    out.atten = A;
+    out.region = region(roi).clone();
+    // The deficit-weighted centroid of the shadow outside the object's disk: its offset from
+    // the disk's centre points away from the key light (in the image).
+    double sw = 0, sx = 0, sy = 0;
+    for (int y = 0; y < roi.height; ++y) {
+        const Vec3f* a = A.ptr<Vec3f>(y);
+        const uchar* r = out.region.ptr<uchar>(y);
+        for (int x = 0; x < roi.width; ++x) {
+            if (!r[x]) continue;
+            const float px = (float)(x + roi.x), py = (float)(y + roi.y);
+            const float dx = px - center.x, dy = py - center.y;
+            if (dx * dx + dy * dy <= radius * radius) continue;
+            const double d = std::max(0.0, 1.0 - (a[x][0] + a[x][1] + a[x][2]) / 3.0);
+            sw += d;
+            sx += d * px;
+            sy += d * py;
+        }
+    }
+    out.deficit_area = sw;
+    if (sw > 0) out.offset = Point2f((float)(sx / sw) - center.x, (float)(sy / sw) - center.y);
+    out.found = sw > 1.0;
+    return out.found;
+}
+
+void glassShadow(const CastShadow& s, Point2f center, const Material& m, Mat& atten) {
+    const Mat& A = s.atten;
+    atten = A.clone();
+    if (!s.found) return;
+    // Of the key light the sphere intercepts, the part transmitted through both surfaces,
+    // (1 − F̄)², is focused by the ball lens; a share kCore of it into the core, the rest
+    // spread over the shadow as it was (the rim's rays, strongly deflected).
+    const double F = meanFresnel(std::max(1.0001, m.ior));
+    const double tau = (1 - F) * (1 - F);
+    const double kCore = 0.7;
+    // Core: a Gaussian beyond the shadow's deficit centroid (which the contact shadow pulls
+    // towards the ball), on the line from the ball away from the key light.
+    const double Rs = std::sqrt(std::max(1.0, s.deficit_area) / CV_PI);
+    const double len = std::hypot(s.offset.x, s.offset.y);
+    const Point2f dir =
+        len > 1e-3 ? Point2f((float)(s.offset.x / len), (float)(s.offset.y / len)) : Point2f(0, 0);
+    const Point2f core = center + s.offset + dir * (float)(0.25 * Rs);
+    const double sigma = std::max(1.0, 0.2 * Rs);
+    // The core only where the shadow is (its support: the deficit relative to the deepest).
+    double dmax = 0;
+    for (int y = 0; y < A.rows; ++y)
+        for (int x = 0; x < A.cols; ++x) {
+            const Vec3f a = A.at<Vec3f>(y, x);
+            dmax = std::max(dmax, 1.0 - (a[0] + a[1] + a[2]) / 3.0);
+        }
+    if (dmax <= 0) return;
+    Mat G(A.size(), CV_32F);
+    double sumG = 0;
+    Vec3d sumD(0, 0, 0);
+    for (int y = 0; y < A.rows; ++y)
+        for (int x = 0; x < A.cols; ++x) {
+            const Vec3f a = A.at<Vec3f>(y, x);
+            const double d = 1.0 - (a[0] + a[1] + a[2]) / 3.0;
+            const double dx = x + s.roi.x - core.x, dy = y + s.roi.y - core.y;
+            const double g = std::exp(-0.5 * (dx * dx + dy * dy) / (sigma * sigma)) *
+                             std::min(1.0, std::max(0.0, d / (0.5 * dmax)));
+            G.at<float>(y, x) = (float)g;
+            sumG += g;
+            for (int c = 0; c < 3; ++c)
+                sumD[c] += 1.0 - a[c];
+        }
+    // Where the core falls outside the shadow's support, its light is lost rather than
+    // pushed onto the support's far tail.
+    sumG = std::max(sumG, 0.5 * 2 * CV_PI * sigma * sigma);
+    // Tinted glass (absorption) colours what it transmits; the absorption is per metre and the
+    // ball's size in metres unknown: a ball of 0.1 m is assumed.
+    Vec3d t;
+    for (int c = 0; c < 3; ++c)
+        t[c] = tau * std::exp(-m.absorption[c] * 0.1);
+    for (int y = 0; y < A.rows; ++y)
+        for (int x = 0; x < A.cols; ++x) {
+            const Vec3f a = A.at<Vec3f>(y, x);
+            Vec3f& o = atten.at<Vec3f>(y, x);
+            const double g = G.at<float>(y, x) / sumG;
+            for (int c = 0; c < 3; ++c) {
+                const double d = 1.0 - a[c];
+                o[c] = (float)(1.0 - d + t[c] * ((1 - kCore) * d + kCore * sumD[c] * g));
+            }
+        }
+}
+
+void castShadow(const CastShadow& s, const Mat& atten, Mat& background_lin) {
+    if (!s.found) return;
+    Mat B = background_lin(s.roi);
+    for (int y = 0; y < B.rows; ++y) {
+        const uchar* r = s.region.ptr<uchar>(y);
+        const Vec3f* a = atten.ptr<Vec3f>(y);
+        Vec3f* b = B.ptr<Vec3f>(y);
+        for (int x = 0; x < B.cols; ++x)
+            if (r[x]) b[x] = b[x].mul(a[x]);
+    }
+}
+
+}  // namespace material_edit
+}  // namespace vbme
+}  // namespace cv
