@@ -9,6 +9,7 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <ctime>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -83,10 +84,17 @@ Clip makeClip(int pan) {
     return c;
 }
 
+double cpuSeconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
 template <class Make>
 void run(benchmark::State& state, const Clip& c, Make make) {
-    double psnr = 0;
+    double psnr = 0, cpu = 0;
     for (auto _ : state) {
+        const double t0 = cpuSeconds();
         auto inp = make();
         Mat out;
         psnr = 0;
@@ -103,7 +111,11 @@ void run(benchmark::State& state, const Clip& c, Make make) {
         }
         inp->finish();
         drain();
+        cpu += cpuSeconds() - t0;
     }
+    // CPU milliseconds per frame, all threads (the machine is shared: wall-clock frames/s
+    // depend on the load)
+    state.counters["cpu_ms"] = 1000 * cpu / double(state.iterations() * c.frames.size());
     state.SetItemsProcessed(state.iterations() * (int64)c.frames.size());
     state.counters["fps"] = benchmark::Counter(double(state.iterations() * c.frames.size()),
                                                benchmark::Counter::kIsRate);

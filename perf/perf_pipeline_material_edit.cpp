@@ -85,7 +85,7 @@ double loadAverage() {
 }
 
 void BM_MaterialEdit(benchmark::State& state, const char* material, bool h264 = false,
-                     const char* preset = nullptr) {
+                     const char* preset = nullptr, bool remove_shadows = false) {
     const Clip& c = clip();
     MaterialEditParams p;
     p.video = h264 ? c.video_h264 : c.video;
@@ -95,6 +95,7 @@ void BM_MaterialEdit(benchmark::State& state, const char* material, bool h264 = 
     p.focal = c.focal;
     p.force = true;
     if (preset) p.encode.preset = preset;
+    if (remove_shadows) p.shadows = SHADOWS_REMOVE;  // removed, and re-cast for the material
     Progress::setEnabled(false);
     std::vector<std::pair<std::string, double>> stages;
     int frames = 0;
@@ -120,7 +121,8 @@ void BM_MaterialEdit(benchmark::State& state, const char* material, bool h264 = 
         state.counters[name + "_ms"] = frames > 0 ? 1000 * s / frames : 0.0;  // per frame
     state.SetLabel(std::string(material) + ", 640x480, " + std::to_string(c.frames) + " frames" +
                    (h264 ? ", H.264 input" : ", FFV1 input") +
-                   (preset ? std::string(", x264 ") + preset : std::string()));
+                   (preset ? std::string(", x264 ") + preset : std::string()) +
+                   (remove_shadows ? ", shadows remove" : ""));
 }
 
 void BM_Chrome(benchmark::State& s) {
@@ -142,11 +144,20 @@ void BM_Chrome_Medium(benchmark::State& s) {
 void BM_Chrome_H264_Medium(benchmark::State& s) {
     BM_MaterialEdit(s, "chrome", true, "medium");
 }
+// shadows "remove": the original shadow removed and the new object's re-cast (shadow.cpp)
+void BM_Chrome_RemoveShadows(benchmark::State& s) {
+    BM_MaterialEdit(s, "chrome", false, nullptr, true);
+}
+void BM_Glass_RemoveShadows(benchmark::State& s) {
+    BM_MaterialEdit(s, "glass", false, nullptr, true);
+}
 BENCHMARK(BM_Chrome)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 BENCHMARK(BM_Chrome_Medium)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 BENCHMARK(BM_Chrome_H264_Medium)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 BENCHMARK(BM_Chrome_H264)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 BENCHMARK(BM_Glass)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
+BENCHMARK(BM_Chrome_RemoveShadows)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
+BENCHMARK(BM_Glass_RemoveShadows)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 
 // CPU time per frame of each stage, stage after stage (nothing overlaps, so the process's CPU
 // clock measures one stage at a time, all its threads included; a loaded machine changes it
@@ -162,7 +173,7 @@ BENCHMARK(BM_Glass)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 //   total).
 // total_cpu_ms is their sum: with perfect overlap on N idle cores, the pipeline runs at
 // N * 1000 / total_cpu_ms frames/s at most ("fps_2cores_cpu" for N = 2).
-void BM_StageCpu(benchmark::State& state, bool h264) {
+void BM_StageCpu(benchmark::State& state, bool h264, bool remove_shadows = false) {
     const Clip& c = clip();
     MaterialEditParams p;
     p.video = h264 ? c.video_h264 : c.video;
@@ -170,6 +181,7 @@ void BM_StageCpu(benchmark::State& state, bool h264) {
     p.material = Material::preset("chrome");
     p.focal = c.focal;
     p.threads = 1;
+    if (remove_shadows) p.shadows = SHADOWS_REMOVE;
     Progress::setEnabled(false);
     std::map<std::string, double> cpu;  // seconds per stage, summed over the iterations
     int frames = 0;
@@ -241,7 +253,8 @@ void BM_StageCpu(benchmark::State& state, bool h264) {
     state.counters["total_cpu_ms"] = 1000 * total / frames;
     state.counters["fps_2cores_cpu"] = 2.0 * frames / total;
     state.SetLabel(std::string("chrome, 640x480, ") + std::to_string(c.frames) + " frames" +
-                   (h264 ? ", H.264 input" : ", FFV1 input"));
+                   (h264 ? ", H.264 input" : ", FFV1 input") +
+                   (remove_shadows ? ", shadows remove" : ""));
 }
 void BM_StageCpu_FFV1(benchmark::State& s) {
     BM_StageCpu(s, false);
@@ -249,7 +262,13 @@ void BM_StageCpu_FFV1(benchmark::State& s) {
 void BM_StageCpu_H264(benchmark::State& s) {
     BM_StageCpu(s, true);
 }
+// shadows "remove": the consensus also votes around the hole to find the shadow, which is
+// removed, and the new object's is cast (the "shadow" stage)
+void BM_StageCpu_FFV1_RemoveShadows(benchmark::State& s) {
+    BM_StageCpu(s, false, true);
+}
 BENCHMARK(BM_StageCpu_FFV1)->Unit(benchmark::kSecond)->Iterations(2);
 BENCHMARK(BM_StageCpu_H264)->Unit(benchmark::kSecond)->Iterations(2);
+BENCHMARK(BM_StageCpu_FFV1_RemoveShadows)->Unit(benchmark::kSecond)->Iterations(2);
 
 }  // namespace

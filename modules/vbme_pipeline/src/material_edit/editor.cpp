@@ -17,9 +17,19 @@ namespace material_edit {
 
 namespace {
 
-enum Stage { TRACKING, SHAPE, INPAINTING, ENVIRONMENT, LIGHTING, RENDERING, COMPOSITING, NSTAGES };
-const char* const kStageNames[NSTAGES] = {"tracking", "shape",     "inpainting", "environment",
-                                          "lighting", "rendering", "compositing"};
+enum Stage {
+    TRACKING,
+    SHAPE,
+    INPAINTING,
+    ENVIRONMENT,
+    LIGHTING,
+    SHADOW,
+    RENDERING,
+    COMPOSITING,
+    NSTAGES
+};
+const char* const kStageNames[NSTAGES] = {"tracking", "shape",  "inpainting", "environment",
+                                          "lighting", "shadow", "rendering",  "compositing"};
 
 Mat checkedFirstMask(InputArray _mask) {
     const Mat m = _mask.getMat();
@@ -169,7 +179,7 @@ public:
         CastShadow cs;
         Mat shadowed = filled;
         if (recast) {
-            ScopedTimer t(sec(RENDERING));
+            ScopedTimer t(sec(SHADOW));
             const ConsensusInpainter::Params cp;
             if (measureCastShadow(it.frame, p_.response, bg_lin_, shadow_mask, it.hole, c, r,
                                   cp.shadow_smooth, cs)) {

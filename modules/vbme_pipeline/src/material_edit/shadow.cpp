@@ -81,19 +81,26 @@ bool measureCastShadow(const Mat& frame8, Response response, const Mat& filled_l
                        double smooth, CastShadow& out) {
     out = CastShadow();
     if (shadow_mask.empty() || countNonZero(shadow_mask) == 0) return false;
-    const Size size = frame8.size();
+    // Everything is done in a window around the shadow and the hole (a whole-frame dilation
+    // by half the radius cost more than the rest of this stage).
+    const int rim = 2 * (int)std::ceil(smooth) + 1;
+    const int g = std::max(1, (int)std::ceil(0.5 * radius));
+    const int pad = 3 * (int)std::ceil(smooth) + 2;
+    const int pad0 = rim + g + pad + 2;
+    Rect w0 = boundingRect(shadow_mask) | boundingRect(hole);
+    w0 = Rect(w0.x - pad0, w0.y - pad0, w0.width + 2 * pad0, w0.height + 2 * pad0) &
+         Rect(Point(), frame8.size());
+    const Mat sm = shadow_mask(w0), ho = hole(w0);
     // The region: the detected shadow grown to take in the penumbra, and the hole (whose
     // pixels were the object's: its part of the shadow is completed from around it).
-    const int rim = 2 * (int)std::ceil(smooth) + 1;
     Mat D;
-    dilate(shadow_mask, D, getStructuringElement(MORPH_ELLIPSE, Size(2 * rim + 1, 2 * rim + 1)));
+    dilate(sm, D, getStructuringElement(MORPH_ELLIPSE, Size(2 * rim + 1, 2 * rim + 1)));
     // Only the parts of it that reach the object (half a radius beyond the hole): a ball's
     // cast shadow touches it where it stands; darker patches further away are the fill's
     // (misaligned texture), not the object's.
     {
         Mat near, labels;
-        const int g = std::max(1, (int)std::ceil(0.5 * radius));
-        dilate(hole, near, getStructuringElement(MORPH_ELLIPSE, Size(2 * g + 1, 2 * g + 1)));
+        dilate(ho, near, getStructuringElement(MORPH_ELLIPSE, Size(2 * g + 1, 2 * g + 1)));
         const int n = connectedComponents(D, labels, 8, CV_32S);
         std::vector<uchar> touches(n, 0);
         for (int y = 0; y < D.rows; ++y) {
@@ -110,14 +117,14 @@ bool measureCastShadow(const Mat& frame8, Response response, const Mat& filled_l
         }
         if (countNonZero(D) == 0) return false;
     }
-    Mat region = D | hole;
-    const int pad = 3 * (int)std::ceil(smooth) + 2;
-    Rect roi = boundingRect(region);
-    roi = Rect(roi.x - pad, roi.y - pad, roi.width + 2 * pad, roi.height + 2 * pad) &
-          Rect(Point(), size);
+    Mat region = D | ho;
+    Rect lroi = boundingRect(region);
+    lroi = Rect(lroi.x - pad, lroi.y - pad, lroi.width + 2 * pad, lroi.height + 2 * pad) &
+           Rect(Point(), w0.size());
+    const Rect roi = lroi + w0.tl();
     Mat Ir;
     linearize(frame8(roi), Ir, response);
-    const Mat Dr = D(roi), Hr = hole(roi), Br = filled_lin(roi);
+    const Mat Dr = D(lroi), Hr = ho(lroi), Br = filled_lin(roi);
     // The attenuation frame / background on the grown shadow, 1 elsewhere; weight 0 in the
     // hole.
     Mat A(roi.size(), CV_32FC3, Scalar::all(1)), W(roi.size(), CV_32F, Scalar(1));
@@ -180,7 +187,7 @@ bool measureCastShadow(const Mat& frame8, Response response, const Mat& filled_l
     fillByNormalisedConvolution(A, Wk, Hr, 2.0, std::max(4.0, (double)radius));
     out.roi = roi;
     out.atten = A;
-    out.region = region(roi).clone();
+    out.region = region(lroi).clone();
     // The deficit-weighted centroid of the shadow outside the object's disk: its offset from
     // the disk's centre points away from the key light (in the image).
     double sw = 0, sx = 0, sy = 0;

@@ -179,7 +179,7 @@ public:
     /** @brief Per-frame results of the frames popped so far, in order. */
     virtual const std::vector<FrameResult>& results() const = 0;
     /** @brief Frame counts, seconds per stage (tracking, shape, inpainting, environment,
-    lighting, rendering, compositing) and the figures "pixels_temporal" (hole pixels filled
+    lighting, shadow (the new object's shadow, with shadows "remove"), rendering, compositing) and the figures "pixels_temporal" (hole pixels filled
     from other frames) and "pixels_exemplar" (by exemplars, never seen); total_seconds is
     the sum of the stages (the editor's own time). */
     virtual const PipelineReport& report() const = 0;
@@ -197,7 +197,7 @@ object lost mid-video, unreadable files, existing outputs without force).
 @param progress called with ("material-edit", frames done, frames total) after each frame.
 @param results optional: receives MaterialEditor::results() (per frame: disk, light, albedo).
 @return the report (pipeline "material-edit"): seconds per stage (decode, tracking, shape,
-inpainting, environment, lighting, rendering, compositing, encode) and the figures of
+inpainting, environment, lighting, shadow, rendering, compositing, encode) and the figures of
 MaterialEditor::report(). See doc/vbme_pipeline_material_edit.md. */
 CV_EXPORTS PipelineReport
 runMaterialEdit(const MaterialEditParams& p, const PipelineProgress& progress = PipelineProgress(),
