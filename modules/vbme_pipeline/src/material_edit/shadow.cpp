@@ -19,40 +19,45 @@ namespace {
 
 const double kAttenSigma = 0.5;  // the attenuation's Gaussian (pixels), after a 3×3 median
 
-/** Normalised convolution of @p A (weights @p W) filling, coarse to fine, the pixels of
-@p need that the finer scales could not reach. */
-void fillByNormalisedConvolution(Mat& A, const Mat& W, const Mat& need, double sigma0,
-                                 double sigmaMax) {
-    Mat todo = need.clone();
-    for (double s = sigma0; countNonZero(todo) > 0; s *= 2) {
-        Mat AW, Wb;
-        std::vector<Mat> ch;
-        split(A, ch);
-        for (Mat& c : ch) {
-            Mat cw = c.mul(W);
-            GaussianBlur(cw, c, Size(0, 0), s);
-        }
-        merge(ch, AW);
-        GaussianBlur(W, Wb, Size(0, 0), s);
-        const bool last = s * 2 > sigmaMax;
-        for (int y = 0; y < A.rows; ++y) {
-            uchar* td = todo.ptr<uchar>(y);
-            const float* wb = Wb.ptr<float>(y);
-            const Vec3f* aw = AW.ptr<Vec3f>(y);
-            Vec3f* a = A.ptr<Vec3f>(y);
-            for (int x = 0; x < A.cols; ++x) {
-                if (!td[x]) continue;
-                if (wb[x] > 0.05f || (last && wb[x] > 1e-6f)) {
-                    a[x] = aw[x] / wb[x];
-                    td[x] = 0;
-                } else if (last) {
-                    a[x] = Vec3f(1, 1, 1);
-                    td[x] = 0;
-                }
+/** Fills the pixels of @p need in @p A from the pixels of weight @p W (0 or 1) by push-pull:
+the weighted image and the weights are halved in size (area averages) down to a few pixels, then
+each level takes the weighted mean where it has weight and the coarser level's estimate for
+the rest (est = A·W + (1 − W)·coarser, W the level's mean weight). */
+void pushPullFill(Mat& A, const Mat& W, const Mat& need) {
+    std::vector<Mat> aw(1), w(1, W);
+    {
+        Mat W3;
+        cvtColor(W, W3, COLOR_GRAY2BGR);
+        aw[0] = A.mul(W3);
+    }
+    while (aw.back().cols > 2 || aw.back().rows > 2) {
+        const Size s((aw.back().cols + 1) / 2, (aw.back().rows + 1) / 2);
+        Mat a2, w2;
+        resize(aw.back(), a2, s, 0, 0, INTER_AREA);
+        resize(w.back(), w2, s, 0, 0, INTER_AREA);
+        aw.push_back(a2);
+        w.push_back(w2);
+    }
+    Mat est;
+    for (int k = (int)aw.size() - 1; k >= 0; --k) {
+        Mat up;
+        if (est.empty())
+            up = Mat(aw[k].size(), CV_32FC3, Scalar::all(1));  // nothing known: unshadowed
+        else
+            resize(est, up, aw[k].size(), 0, 0, INTER_LINEAR);
+        est.create(aw[k].size(), CV_32FC3);
+        for (int y = 0; y < est.rows; ++y) {
+            const Vec3f* a = aw[k].ptr<Vec3f>(y);
+            const float* ww = w[k].ptr<float>(y);
+            const Vec3f* u = up.ptr<Vec3f>(y);
+            Vec3f* e = est.ptr<Vec3f>(y);
+            for (int x = 0; x < est.cols; ++x) {
+                const float wc = std::min(1.f, std::max(0.f, ww[x]));
+                e[x] = a[x] + (1 - wc) * u[x];  // a = wc × the known pixels' mean
             }
         }
-        if (last) break;
     }
+    est.copyTo(A, need);
 }
 
 /** Hemispherical average of the unpolarised Fresnel reflectance of a dielectric of index
@@ -183,8 +188,7 @@ bool measureCastShadow(const Mat& frame8, Response response, const Mat& filled_l
     }
     // The hole: completed from its surroundings (the object's contact shadow continues under
     // its margin).
-    Mat Wk = W.clone();
-    fillByNormalisedConvolution(A, Wk, Hr, 2.0, std::max(4.0, (double)radius));
+    pushPullFill(A, W, Hr);
     out.roi = roi;
     out.atten = A;
     out.region = region(lroi).clone();
