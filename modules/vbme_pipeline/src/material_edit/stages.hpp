@@ -134,7 +134,7 @@ struct CastShadow {
 /** Measures the attenuation frame (8-bit, linearised by @p response) / fill (linear) over the
 detected shadow @p shadow_mask (ConsensusInpainter's) grown by 2⌈@p smooth⌉ + 1 px for the
 penumbra (@p smooth: ConsensusInpainter::Params::shadow_smooth), denoised (3×3 median, Gaussian
-σ = 0.5 px) and completed into the @p hole from around it by normalised convolution. False when
+σ = 0.5 px) and completed into the @p hole from around it by push-pull. False when
 there is no shadow. */
 bool measureCastShadow(const Mat& frame8, Response response, const Mat& filled_lin,
                        const Mat& shadow_mask, const Mat& hole, Point2f center, float radius,
