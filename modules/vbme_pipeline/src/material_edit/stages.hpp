@@ -126,6 +126,7 @@ struct CastShadow {
     Rect roi;                 //!< where atten and region lie (frame pixels)
     Mat atten;                //!< CV_32FC3 linear attenuation (1 = unshadowed) over roi
     Mat region;               //!< CV_8U over roi: the pixels the shadow may change
+    Mat hole;                 //!< CV_8U over roi: the object's hole
     Point2f offset;           //!< deficit-weighted centroid of the shadow outside the disk − the
                               //!< disk's centre (pixels): points away from the key light
     double deficit_area = 0;  //!< Σ (1 − mean attenuation) outside the disk (pixels)
@@ -141,8 +142,9 @@ bool measureCastShadow(const Mat& frame8, Response response, const Mat& filled_l
                        double smooth, CastShadow& out);
 /** A glass ball's attenuation from the opaque one: the light of the shadow's deficit that the
 sphere transmits ((1 − F̄)², F̄ the mean Fresnel reflectance of @p m's index) goes 70 % into a
-Gaussian caustic core beyond the shadow's centroid (away from the key light) and 30 % back
-over the shadow; tinted by the material's absorption over 0.1 m. */
+Gaussian caustic core (σ = half the shadow's equivalent radius) at the shadow's centroid (away
+from the key light) and 30 % back over the shadow; tinted by the material's absorption over
+0.1 m. */
 void glassShadow(const CastShadow& s, Point2f center, const Material& m, Mat& atten);
 /** Multiplies @p background_lin by @p atten (over s.roi) on s.region. */
 void castShadow(const CastShadow& s, const Mat& atten, Mat& background_lin);
