@@ -2,7 +2,9 @@
 // The new object's shadow in material editing with shadows "remove", on the static-camera clip
 // rendered by Blender Cycles (test/data/inpaint_static, scripts/blender/inpaint_clip.py): an
 // orange ball rolling over a striped floor under a soft sun, with the clean plate rendered
-// without the ball as the oracle. The ball is re-inserted opaque, as chrome and as glass.
+// without the ball as the oracle. The ball is re-inserted opaque, as chrome and as glass; three
+// frames re-rendered by Cycles with the ball in glass (test/data/inpaint_static_glass) are the
+// glass shadow's truth.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -122,7 +122,8 @@ void setupMaterialEdit(CLI::App& app) {
         ->check(CLI::IsMember({"background", "video"}));
     app.add_option("--shadows", opt->shadows,
                    "The original ball's cast shadow: keep (default; the new ball casts none of "
-                   "its own) or remove")
+                   "its own) or remove (the new ball then casts one fitting its material: the "
+                   "original's for opaque and chrome, lighter with a caustic core for glass)")
         ->check(CLI::IsMember({"keep", "remove"}));
     app.add_option("--response", opt->response, "Camera response: srgb, gamma2.2 or linear")
         ->check(CLI::IsMember({"srgb", "gamma2.2", "linear"}));
