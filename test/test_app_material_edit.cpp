@@ -159,3 +159,24 @@ TEST(AppMaterialEdit, MaterialFileAndFixedLight) {
     EXPECT_GT(mr[2], 2 * mr[0]);
     EXPECT_GT(mb[0], mb[2]);
 }
+
+TEST(AppMaterialEdit, ShadowsAutoFollowsTheMaterial) {
+    // --shadows auto (the default) removes the original shadow for a material that transmits
+    // light and keeps it for the others; an explicit choice wins. The report says which ran.
+    vbme_test::ScratchDir dir;
+    writeClip(dir, 4);
+    const auto removed = [&](const std::string& extra, const std::string& name) {
+        const auto r = vbme_test::run(cmd(dir, extra + " --light fixed:0,-1,-1 --out " +
+                                                   (dir / (name + ".mkv")) + " --report " +
+                                                   (dir / (name + ".yml"))));
+        EXPECT_EQ(r.code, 0) << r.output;
+        cv::FileStorage rep(dir / (name + ".yml"), cv::FileStorage::READ);
+        EXPECT_TRUE(rep.isOpened()) << name;
+        return rep.isOpened() ? (int)rep["figures"]["shadows_removed"] : -1;
+    };
+    EXPECT_EQ(removed("--material glass", "glass"), 1);
+    EXPECT_EQ(removed("--material blue", "blue"), 0);
+    EXPECT_EQ(removed("--material chrome --shadows auto", "chrome"), 0);
+    EXPECT_EQ(removed("--material glass --shadows keep", "glass_keep"), 0);
+    EXPECT_EQ(removed("--material blue --shadows remove", "blue_remove"), 1);
+}

@@ -78,7 +78,7 @@ struct MaterialEditOptions {
     std::string material;
     std::string light = "auto";
     std::string inpaint = "background";
-    std::string shadows = "keep";
+    std::string shadows = "auto";
     std::string response = "srgb";
     std::string report;
     CommonOptions common;
@@ -121,10 +121,12 @@ void setupMaterialEdit(CLI::App& app) {
                    "background (static camera, fast) or video (aligned neighbours, slower)")
         ->check(CLI::IsMember({"background", "video"}));
     app.add_option("--shadows", opt->shadows,
-                   "The original ball's cast shadow: keep (default; the new ball casts none of "
-                   "its own) or remove (the new ball then casts one fitting its material: the "
-                   "original's for opaque and chrome, lighter with a caustic core for glass)")
-        ->check(CLI::IsMember({"keep", "remove"}));
+                   "The original ball's cast shadow: keep (it stays, exactly; the new ball casts "
+                   "none of its own), remove (the new ball then casts one fitting its material, "
+                   "estimated from the original: the same for opaque and chrome, lighter with a "
+                   "caustic core for glass) or auto (default: remove for glass and other "
+                   "dielectrics, keep for every other material, whose shadow is the original's)")
+        ->check(CLI::IsMember({"auto", "keep", "remove"}));
     app.add_option("--response", opt->response, "Camera response: srgb, gamma2.2 or linear")
         ->check(CLI::IsMember({"srgb", "gamma2.2", "linear"}));
     app.add_option("--samples", p.samples, "Samples per pixel for rough lobes")
@@ -145,7 +147,8 @@ void setupMaterialEdit(CLI::App& app) {
         parseLightSpec(opt->light, p);
         p.inpaint = opt->inpaint == "video" ? cv::vbme::MATERIAL_EDIT_INPAINT_VIDEO
                                             : cv::vbme::MATERIAL_EDIT_INPAINT_BACKGROUND;
-        p.shadows = cv::vbme::parseShadowMode(opt->shadows);
+        p.shadows = opt->shadows == "auto" ? cv::vbme::shadowModeFor(p.material)
+                                           : cv::vbme::parseShadowMode(opt->shadows);
         p.response = cv::vbme::parseResponse(opt->response);
         if (!opt->report.empty()) cv::vbme::checkOverwrite(opt->report, p.force);
         std::unique_ptr<cv::vbme::Progress> bar;

@@ -116,6 +116,7 @@ DemoResult runMaterialDemo(const DemoContext& ctx) {
         mp.first_mask = first_mask;
         mp.out = e.out;
         mp.material = Material::preset(e.material);
+        mp.shadows = shadowModeFor(mp.material);  // --shadows auto, the command's default
         mp.focal = clip.focal();
         mp.intermediates = e.steps;
         mp.force = ctx.force;

@@ -268,6 +268,8 @@ PipelineReport runEdit(const MaterialEditParams& p, const PipelineProgress& prog
     PipelineReport report = editor->report();
     report.frames_total = (int)done;
     report.video_written = true;
+    // which shadow handling ran (`--shadows auto` resolves it from the material)
+    report.setFigure("shadows_removed", p.shadows == SHADOWS_REMOVE ? 1 : 0);
     report.work = p.intermediates;
     report.seconds.insert(report.seconds.begin(), {"decode", decode_s});
     report.seconds.emplace_back("encode", encode_s);

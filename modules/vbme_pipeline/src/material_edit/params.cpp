@@ -15,6 +15,10 @@ std::string toString(MaterialEditLight m) {
     return m == MATERIAL_EDIT_LIGHT_FIXED ? "fixed" : "auto";
 }
 
+ShadowMode shadowModeFor(const Material& material) {
+    return material.type == Material::DIELECTRIC ? SHADOWS_REMOVE : SHADOWS_KEEP;
+}
+
 std::string toString(MaterialEditInpaint m) {
     return m == MATERIAL_EDIT_INPAINT_VIDEO ? "video" : "background";
 }

@@ -197,11 +197,19 @@ object lost mid-video, unreadable files, existing outputs without force).
 @param progress called with ("material-edit", frames done, frames total) after each frame.
 @param results optional: receives MaterialEditor::results() (per frame: disk, light, albedo).
 @return the report (pipeline "material-edit"): seconds per stage (decode, tracking, shape,
-inpainting, environment, lighting, shadow, rendering, compositing, encode) and the figures of
-MaterialEditor::report(). See doc/vbme_pipeline_material_edit.md. */
+inpainting, environment, lighting, shadow, rendering, compositing, encode), the figure
+"shadows_removed" (1 with SHADOWS_REMOVE, else 0) and the figures of MaterialEditor::report(). See doc/vbme_pipeline_material_edit.md. */
 CV_EXPORTS PipelineReport
 runMaterialEdit(const MaterialEditParams& p, const PipelineProgress& progress = PipelineProgress(),
                 std::vector<MaterialEditor::FrameResult>* results = nullptr);
+
+/** @brief The cast-shadow handling that fits a new material (`vbme material-edit --shadows auto`,
+the command's default): SHADOWS_REMOVE for a material that transmits light (Material::DIELECTRIC:
+glass, ice), whose shadow must be lighter than the original ball's and carry a caustic core;
+SHADOWS_KEEP for every other material, whose shadow is the original ball's own (an opaque or
+chrome ball of the same size blocks the same light), kept exactly instead of removed and
+re-estimated. */
+CV_EXPORTS ShadowMode shadowModeFor(const Material& material);
 
 /** @brief "auto" or "fixed" (MaterialEditLight). */
 CV_EXPORTS std::string toString(MaterialEditLight m);
