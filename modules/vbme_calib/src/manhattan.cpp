@@ -577,6 +577,31 @@ void refineFrame(std::vector<Seg>& segs, Frame& fr, const VanishingPointCalibrat
     fr.score = scoreFrame(segs, fr, nullptr);
 }
 
+/** Segments (pixels) in normalised coordinates around @p pp, with their inlier angles and
+length weights. */
+std::vector<Seg> makeSegs(const std::vector<Vec4f>& px, const Point2d& pp, double W,
+                          const VanishingPointCalibrator::Params& p) {
+    std::vector<Seg> segs(px.size());
+    double total = 0;
+    const double thr_max = std::sin(2.0 * p.inlier_angle_deg * CV_PI / 180),
+                 thr_min = std::sin(0.3 * p.inlier_angle_deg * CV_PI / 180);
+    for (size_t i = 0; i < px.size(); ++i) {
+        Seg& s = segs[i];
+        s.a = Vec2d((px[i][0] - pp.x) / W, (px[i][1] - pp.y) / W);
+        s.b = Vec2d((px[i][2] - pp.x) / W, (px[i][3] - pp.y) / W);
+        s.len = std::hypot(px[i][2] - px[i][0], px[i][3] - px[i][1]);
+        // Angular uncertainty of a segment of length L with endpoint noise σ: √2 σ / L
+        // (σ = 0.5 px), plus 0.1° of model error; the inlier threshold is 3 of those.
+        const double sig = std::sqrt(2.0) * 0.5 / std::max(1.0, s.len) + 0.1 * CV_PI / 180;
+        s.thr = std::min(thr_max, std::max(thr_min, std::sin(3 * sig)));
+        s.w = s.len;
+        total += s.len;
+    }
+    for (auto& s : segs)
+        s.w /= total;
+    return segs;
+}
+
 }  // namespace
 
 std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Size size,
@@ -593,24 +618,7 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Siz
     const Point2d pp = p.principal_point.x >= 0 && p.principal_point.y >= 0
                            ? p.principal_point
                            : Point2d((size.width - 1) * 0.5, (size.height - 1) * 0.5);
-    std::vector<Seg> segs(n);
-    double total = 0;
-    const double thr_max = std::sin(2.0 * p.inlier_angle_deg * CV_PI / 180),
-                 thr_min = std::sin(0.3 * p.inlier_angle_deg * CV_PI / 180);
-    for (int i = 0; i < n; ++i) {
-        Seg& s = segs[i];
-        s.a = Vec2d((px[i][0] - pp.x) / W, (px[i][1] - pp.y) / W);
-        s.b = Vec2d((px[i][2] - pp.x) / W, (px[i][3] - pp.y) / W);
-        s.len = std::hypot(px[i][2] - px[i][0], px[i][3] - px[i][1]);
-        // Angular uncertainty of a segment of length L with endpoint noise σ: √2 σ / L
-        // (σ = 0.5 px), plus 0.1° of model error; the inlier threshold is 3 of those.
-        const double sig = std::sqrt(2.0) * 0.5 / std::max(1.0, s.len) + 0.1 * CV_PI / 180;
-        s.thr = std::min(thr_max, std::max(thr_min, std::sin(3 * sig)));
-        s.w = s.len;
-        total += s.len;
-    }
-    for (auto& s : segs)
-        s.w /= total;
+    std::vector<Seg> segs = makeSegs(px, pp, W, p);
     // Search (at each κ of a grid when distortion is estimated; κ in units of W).
     std::vector<double> kappas = {0.0};
     if (p.estimate_distortion) kappas = {0.0, -0.05, -0.1, -0.2, -0.3, -0.45, -0.6, 0.05, 0.1};
@@ -796,6 +804,24 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Siz
         ranked.push_back(mp);
     }
     return ranked;
+}
+
+double refineManhattanFrameFrom(const std::vector<Vec4f>& px, Size size,
+                                const VanishingPointCalibrator::Params& p, double focal,
+                                const Matx33d& R, double* focal_rel_sigma, double* score) {
+    const double W = std::max(size.width, size.height);
+    const Point2d pp = p.principal_point.x >= 0 && p.principal_point.y >= 0
+                           ? p.principal_point
+                           : Point2d((size.width - 1) * 0.5, (size.height - 1) * 0.5);
+    std::vector<Seg> segs = makeSegs(px, pp, W, p);
+    Frame fr;
+    fr.F = focal / W;
+    fr.D = R;
+    setKappa(segs, 0);
+    refineFrame(segs, fr, p, W, false);
+    if (focal_rel_sigma) *focal_rel_sigma = fr.sigma_logF;
+    if (score) *score = fr.score;
+    return fr.F * W;
 }
 
 }  // namespace detail

@@ -25,6 +25,17 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& segment
                                                const VanishingPointCalibrator::Params& params,
                                                int max_proposals);
 
+/** The GLOBAL search's refinement (relabelling + robust joint refinement of focal length and
+rotation, no distortion) started from a given frame: @p focal (px) and @p R (cam_from_world,
+columns the world axes in camera coordinates), principal point as in @p params. Returns the
+refined focal length; @p focal_rel_sigma (if given) its relative standard deviation and
+@p score (if given) the refined frame's consensus score. White-box: lets tests start the
+refinement from the true frame to tell a biased objective from a badly chosen start. */
+double refineManhattanFrameFrom(const std::vector<Vec4f>& segments, Size size,
+                                const VanishingPointCalibrator::Params& params, double focal,
+                                const Matx33d& R, double* focal_rel_sigma = nullptr,
+                                double* score = nullptr);
+
 }  // namespace detail
 }  // namespace vbme
 }  // namespace cv
