@@ -126,6 +126,8 @@ inline cv::vbme::VideoSinkOptions changedVideoSinkOptions() {
     o.preset = "slow";
     o.bitrate = 4000000;
     o.min_bitrate = 2500000;
+    o.min_psnr = 45.5;
+    o.quality_trial_frames = 6;
     o.pix_fmt = "yuv444p";
     o.full_chroma = true;
     o.color.primaries = 9;

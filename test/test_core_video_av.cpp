@@ -130,6 +130,7 @@ TEST(CoreVideoAv, DefaultEncodeKeepsWhatWasRendered) {
     for (const char* pf : {"yuv420p", "yuv444p", "medium"}) {
         VideoSinkOptions so;
         so.crf = 17;
+        so.min_psnr = 0;  // the CRF as given, without the quality floor's trials
         so.pix_fmt = pf;
         if (std::string(pf) == "medium") {
             so.crf = 14;
@@ -603,6 +604,7 @@ TEST(CoreVideoAv, InputBitRateIsAFloorForTheDefaultQuality) {
         VideoSinkOptions so = sinkOptionsFrom(r, out);
         const int64 floor = so.min_bitrate;
         if (!with_floor) so.min_bitrate = 0;
+        so.min_psnr = 0;  // the bit-rate floor alone, from plain CRF 14 (no quality trials)
         VideoSink s(out, r.fps(), r.frameSize(), so);
         Mat f;
         while (r.read(f))
@@ -613,6 +615,7 @@ TEST(CoreVideoAv, InputBitRateIsAFloorForTheDefaultQuality) {
     VideoSinkOptions hi, lo, lossless;
     hi.crf = 6;
     lo.crf = 30;
+    hi.min_psnr = lo.min_psnr = 0;  // inputs at exactly these CRFs
     lossless.codec = "ffv1";
     write(tmp / "hi.mp4", hi);
     write(tmp / "lo.mp4", lo);
@@ -652,4 +655,42 @@ TEST(CoreVideoAv, InputBitRateIsAFloorForTheDefaultQuality) {
     EXPECT_GT(floor_lo, 0);
     EXPECT_NEAR(rateOf(tmp / "lo_out.mp4"), rateOf(tmp / "lo_crf14.mp4"), 2000.0);
     EXPECT_EQ(floor_ll, 0);
+}
+
+// The quality floor (VideoSinkOptions::min_psnr): on noisy textured frames, where x264's CRF 14
+// keeps well under 48 dB of the frames written, the default video keeps at least the floor
+// (4:4:4, so that the conversion's own loss stays far above it); the same frames with the floor
+// off (the CRF as given) are the control that shows the trials acted. A video shorter than
+// the trial (2 frames) is chosen for at close().
+TEST(CoreVideoAv, QualityFloorLowersTheCrfUntilTheFramesAreKept) {
+    vbme_test::ScratchDir tmp;
+    const Size size(128, 96);
+    const int n = 8;
+    std::vector<Mat> frames;
+    for (int i = 0; i < n; ++i)
+        frames.push_back(renderedFrame(truthFrame(i, size), i));
+    auto roundTrip = [&](const std::string& name, double min_psnr, int count) {
+        VideoSinkOptions so;
+        so.full_chroma = true;
+        so.min_psnr = min_psnr;
+        {
+            VideoSink s(tmp / name, 24, size, so);
+            for (int i = 0; i < count; ++i)
+                s.write(frames[i]);
+            s.close();
+        }
+        const std::vector<Mat> back = vbme_test::readVideoFrames(tmp / name);
+        EXPECT_EQ((int)back.size(), count) << name;
+        if ((int)back.size() != count) return 0.0;
+        return psnrOf(back, std::vector<Mat>(frames.begin(), frames.begin() + count));
+    };
+    const double p_floor = roundTrip("floor.mp4", 48, n), p_plain = roundTrip("plain.mp4", 0, n),
+                 p_short = roundTrip("short.mp4", 48, 2);
+    std::printf(
+        "[ measured ] PSNR of the video against the frames written: quality floor 48 dB "
+        "%.2f dB (2-frame video %.2f dB), CRF 14 as given %.2f dB\n",
+        p_floor, p_short, p_plain);
+    EXPECT_LT(p_plain, 45.0);  // the floor has work to do
+    EXPECT_GE(p_floor, 47.5);  // kept: 0.5 dB for the frames after the trial
+    EXPECT_GE(p_short, 47.5);
 }

@@ -36,6 +36,12 @@ void addVideoOutputOptions(CLI::App& app, cv::vbme::VideoSinkOptions& opts) {
                    "from a lossy input keeps at least the input's bit rate")
         ->check(CLI::Range(0, 51))
         ->capture_default_str();
+    app.add_option("--min-psnr", opts.min_psnr,
+                   "h264/h265: the lowest PSNR (dB) of the coding error, decoded frames against "
+                   "the frames written; trial encodes of the first frames lower the CRF until it "
+                   "is reached (0: off, the CRF as given)")
+        ->check(CLI::Range(0.0, 100.0))
+        ->capture_default_str();
     app.add_option("--preset", opts.preset,
                    "Speed preset of h264/h265 (x264/x265): slower presets give smaller files at "
                    "about the same quality, for more time")

@@ -980,6 +980,8 @@ struct AudioTrack {
 
 }  // namespace
 
+struct QualityTrialFrames;
+
 struct VideoSink::Impl {
     std::string path;
     VideoSinkOptions opt;
@@ -1021,6 +1023,19 @@ struct VideoSink::Impl {
     PacketPtr apkt;
     FramePtr aframe;
 
+    // the quality floor (VideoSinkOptions::min_psnr): frames held until the trial encodes
+    // chose the CRF, and what the trials found (for the stream's encoder_settings)
+    bool trial_done = false;
+    std::vector<std::pair<Mat, double>> held;
+    std::string trial_note;
+    bool trialPending() const;
+    void runQualityTrial();
+    double trialPsnr(const QualityTrialFrames& t, int crf);
+    void encodeVideoFrame(const Mat& frame, double seconds);
+    void flushHeld();
+
+    std::string pixelFormatName() const;
+    AVRational videoTimeBase() const;
     void openEncoder(bool deep_frames);
     void encode(AVFrame* f);
     void pumpAudio(double until, bool final);
@@ -1103,6 +1118,218 @@ VideoSink::VideoSink(const std::string& path, double fps, Size size,
     m.file.reset(new AtomicFile(path));
 }
 
+// The encoded pixel format (VideoSinkOptions::pix_fmt or the codec's default), for frames of
+// depth `deep`.
+std::string VideoSink::Impl::pixelFormatName() const {
+    const std::string& c = opt.codec;
+    std::string pf = opt.pix_fmt;
+    if (pf.empty()) {
+        if (c == "ffv1")
+            pf = deep ? "gbrp16le" : "bgr0";
+        else if (c == "prores")
+            pf = "yuv422p10le";
+        else if (opt.full_chroma && (c == "h264" || c == "h265"))
+            pf = deep ? "yuv444p10le" : "yuv444p";
+        else
+            pf = deep ? "yuv420p10le" : "yuv420p";
+    }
+    const AVPixelFormat f = av_get_pix_fmt(pf.c_str());
+    if (f == AV_PIX_FMT_NONE) CV_Error(Error::StsBadArg, "unknown pixel format '" + pf + "'");
+    const AVPixFmtDescriptor* pd = av_pix_fmt_desc_get(f);
+    if (pd && (pd->log2_chroma_w || pd->log2_chroma_h) && (size.width % 2 || size.height % 2))
+        pf = deep ? "yuv444p10le" : "yuv444p";  // 4:2:0 / 4:2:2 need even sizes: full chroma
+    return pf;
+}
+
+AVRational VideoSink::Impl::videoTimeBase() const {
+    if (lower(fs::path(path).extension().string()) == ".avi")
+        return av_inv_q(av_d2q(fps, 100000));  // AVI counts frames: its tick is one frame
+    return opt.time_base[0] > 0 && opt.time_base[1] > 0
+               ? AVRational{opt.time_base[0], opt.time_base[1]}
+               : AVRational{1, 90000};
+}
+
+bool VideoSink::Impl::trialPending() const {
+    return !trial_done && !sequence && opt.min_psnr > 0 && opt.bitrate == 0 &&
+           (opt.codec == "h264" || opt.codec == "h265");
+}
+
+// The frames of the quality trials: as the sink converts them for the encoder, and converted
+// back to BGR (what a lossless coder would keep, the reference of the coding error).
+struct QualityTrialFrames {
+    std::vector<FramePtr> coded;
+    std::vector<Mat> refs;
+    SwsPtr back;  // the encoder's pixel format to BGR
+    AVPixelFormat pf = AV_PIX_FMT_NONE;
+};
+
+static Mat swsToBgr(SwsContext* back, const AVFrame* f, Size size, int type) {
+    Mat m(size, type);
+    uint8_t* dst[4] = {m.data, nullptr, nullptr, nullptr};
+    const int stride[4] = {(int)m.step[0], 0, 0, 0};
+    sws_scale(back, f->data, f->linesize, 0, size.height, dst, stride);
+    return m;
+}
+
+// One trial of the quality floor: the trial frames encoded at @p crf by an encoder set up as
+// the sink's (codec, preset, pixel format, colour), decoded and converted back to BGR; returns
+// the PSNR against the references over the frames after the first (the coding error alone), -1
+// on failure.
+double VideoSink::Impl::trialPsnr(const QualityTrialFrames& t, int crf) {
+    const bool rgb = isRgbFormat(t.pf);
+    CodecPtr e(avcodec_alloc_context3(codec));
+    e->width = size.width;
+    e->height = size.height;
+    e->pix_fmt = t.pf;
+    e->time_base = AVRational{1, 1000};
+    e->framerate = av_d2q(fps, 100000);
+    e->thread_count = 0;
+    e->color_primaries = (AVColorPrimaries)opt.color.primaries;
+    e->color_trc = (AVColorTransferCharacteristic)opt.color.transfer;
+    e->colorspace = rgb ? AVCOL_SPC_RGB : (AVColorSpace)opt.color.matrix;
+    e->color_range = rgb ? AVCOL_RANGE_JPEG : (AVColorRange)opt.color.range;
+    av_opt_set(e->priv_data, "crf", std::to_string(crf).c_str(), 0);
+    av_opt_set(e->priv_data, "preset", opt.preset.c_str(), 0);
+    if (opt.codec == "h265") av_opt_set(e->priv_data, "x265-params", "log-level=error", 0);
+    if (avcodec_open2(e.get(), codec, nullptr) < 0) return -1;
+    const AVCodec* dc = avcodec_find_decoder(codec->id);
+    if (!dc) return -1;
+    CodecPtr d(avcodec_alloc_context3(dc));
+    d->thread_count = 1;
+    if (avcodec_open2(d.get(), dc, nullptr) < 0) return -1;
+    const int type = deep ? CV_16UC3 : CV_8UC3;
+    double sse = 0, n = 0;
+    size_t got = 0;
+    PacketPtr p(av_packet_alloc());
+    FramePtr out(av_frame_alloc());
+    auto frames = [&]() {
+        while (avcodec_receive_frame(d.get(), out.get()) == 0) {
+            // the first frame (a keyframe, coded finer than the frames between keyframes) is
+            // left out unless it is the only one
+            if (got < t.refs.size() && (got > 0 || t.refs.size() == 1)) {
+                const Mat m = swsToBgr(t.back.get(), out.get(), size, type);
+                sse += norm(m, t.refs[got], NORM_L2SQR);
+                n += (double)m.total() * 3;
+            }
+            ++got;
+            av_frame_unref(out.get());
+        }
+    };
+    auto packets = [&]() {
+        while (avcodec_receive_packet(e.get(), p.get()) == 0) {
+            avcodec_send_packet(d.get(), p.get());
+            av_packet_unref(p.get());
+            frames();
+        }
+    };
+    for (size_t i = 0; i < t.coded.size(); ++i) {
+        t.coded[i]->pts = (int64_t)i * 40;
+        if (avcodec_send_frame(e.get(), t.coded[i].get()) < 0) return -1;
+        packets();
+    }
+    avcodec_send_frame(e.get(), nullptr);
+    packets();
+    avcodec_send_packet(d.get(), nullptr);
+    frames();
+    if (got != t.refs.size() || n == 0) return -1;
+    const double peak = deep ? 65535.0 : 255.0;
+    return sse <= 0 ? 100.0 : std::min(100.0, 10 * std::log10(peak * peak * n / sse));
+}
+
+// The quality floor (VideoSinkOptions::min_psnr): trial encodes of the frames held choose the
+// CRF the video is encoded at. The first trial is at the CRF asked for; each next one lowers
+// it by the dB still missing (plus 0.3 dB) at 1 dB per CRF step (the quantizer step doubles
+// every 6 steps, its error power quadruples: 6 dB), or at the slope measured between the last
+// two trials, at least 1 step; at most 5 trials, the lowest CRF tried being kept if none
+// reaches the floor. CRF 0 is lossless in 8 bits (x264), which ends the search.
+void VideoSink::Impl::runQualityTrial() {
+    trial_done = true;
+    if (held.empty()) return;
+    quietLibav();
+    QualityTrialFrames t;
+    const std::string pf_name = pixelFormatName();
+    t.pf = av_get_pix_fmt(pf_name.c_str());
+    const bool rgb = isRgbFormat(t.pf);
+    const int flags = SWS_BICUBIC | SWS_ACCURATE_RND | SWS_FULL_CHR_H_INT | SWS_FULL_CHR_H_INP;
+    // the sink's forward conversion, as openEncoder sets it up, and its inverse
+    const AVPixelFormat bgrf = deep ? AV_PIX_FMT_BGR48LE : AV_PIX_FMT_BGR24;
+    SwsPtr fwd(sws_getContext(size.width, size.height, bgrf, size.width, size.height, t.pf, flags,
+                              nullptr, nullptr, nullptr));
+    t.back.reset(sws_getContext(size.width, size.height, t.pf, size.width, size.height, bgrf, flags,
+                                nullptr, nullptr, nullptr));
+    if (!fwd || !t.back) CV_Error(Error::StsError, "cannot convert frames to " + pf_name);
+    if (!rgb) {
+        const int* cs = sws_getCoefficients(swsColorspace(opt.color.matrix, 1080));
+        const int full = opt.color.range == AVCOL_RANGE_JPEG ? 1 : 0;
+        sws_setColorspaceDetails(fwd.get(), sws_getCoefficients(SWS_CS_DEFAULT), 1, cs, full, 0,
+                                 1 << 16, 1 << 16);
+        sws_setColorspaceDetails(t.back.get(), cs, full, sws_getCoefficients(SWS_CS_DEFAULT), 1, 0,
+                                 1 << 16, 1 << 16);
+    }
+    for (const auto& h : held) {
+        Mat bgr = h.first;
+        if (bgr.channels() == 1) cvtColor(bgr, bgr, COLOR_GRAY2BGR);
+        FramePtr f(av_frame_alloc());
+        f->format = t.pf;
+        f->width = size.width;
+        f->height = size.height;
+        if (av_frame_get_buffer(f.get(), 0) < 0)
+            CV_Error(Error::StsNoMem, "cannot allocate a video frame");
+        const uint8_t* src[4] = {bgr.data, nullptr, nullptr, nullptr};
+        const int stride[4] = {(int)bgr.step[0], 0, 0, 0};
+        sws_scale(fwd.get(), src, stride, 0, size.height, f->data, f->linesize);
+        t.refs.push_back(swsToBgr(t.back.get(), f.get(), size, deep ? CV_16UC3 : CV_8UC3));
+        t.coded.push_back(std::move(f));
+    }
+    int crf = opt.crf, prev_crf = -1;
+    double prev_psnr = 0, psnr = 0;
+    std::string tried;
+    for (int trial = 0; trial < 5; ++trial) {
+        psnr = trialPsnr(t, crf);
+        if (psnr < 0) {
+            trial_note = " (quality trial failed: the CRF as given)";
+            return;
+        }
+        tried += format("%s%d: %.2f dB", tried.empty() ? "" : ", ", crf, psnr);
+        if (psnr >= opt.min_psnr || crf == 0) break;
+        double slope = 1.0;
+        if (prev_crf > crf && psnr > prev_psnr)
+            slope = std::max(0.3, (psnr - prev_psnr) / (prev_crf - crf));
+        const int step = std::max(1, (int)std::ceil((opt.min_psnr + 0.3 - psnr) / slope));
+        prev_crf = crf;
+        prev_psnr = psnr;
+        crf = std::max(0, crf - step);
+    }
+    trial_note = format(
+        " (crf %d asked; PSNR of the coding error on the first %zu frames at crf "
+        "%s; floor %.1f dB)",
+        opt.crf, t.coded.size(), tried.c_str(), opt.min_psnr);
+    opt.crf = crf;
+}
+
+void VideoSink::Impl::flushHeld() {
+    runQualityTrial();
+    for (const auto& h : held)
+        encodeVideoFrame(h.first, h.second);
+    held.clear();
+}
+
+void VideoSink::Impl::encodeVideoFrame(const Mat& frame, double seconds) {
+    if (!opened) openEncoder(deep);
+    Mat bgr = frame;
+    if (frame.channels() == 1) cvtColor(frame, bgr, COLOR_GRAY2BGR);
+    if (av_frame_make_writable(vframe.get()) < 0)
+        CV_Error(Error::StsNoMem, "cannot allocate a video frame");
+    const uint8_t* src[4] = {bgr.data, nullptr, nullptr, nullptr};
+    const int stride[4] = {(int)bgr.step[0], 0, 0, 0};
+    sws_scale(sws.get(), src, stride, 0, size.height, vframe->data, vframe->linesize);
+    vframe->pts = (int64_t)std::llround(seconds / av_q2d(enc->time_base));
+    next_end = seconds + 1.0 / fps;
+    pumpAudio(seconds, false);
+    adjustRate(seconds, vframe->pts);
+    encode(vframe.get());
+}
+
 void VideoSink::Impl::openEncoder(bool deep_frames) {
     deep = deep_frames;
     quietLibav();
@@ -1115,36 +1342,13 @@ void VideoSink::Impl::openEncoder(bool deep_frames) {
     av_freep(&oc->url);
     oc->url = av_strdup(file->tempPath().c_str());
     const std::string& c = opt.codec;
-    // pixel format
-    std::string pf = opt.pix_fmt;
-    if (pf.empty()) {
-        if (c == "ffv1")
-            pf = deep ? "gbrp16le" : "bgr0";
-        else if (c == "prores")
-            pf = "yuv422p10le";
-        else if (opt.full_chroma && (c == "h264" || c == "h265"))
-            pf = deep ? "yuv444p10le" : "yuv444p";
-        else
-            pf = deep ? "yuv420p10le" : "yuv420p";
-    }
+    const std::string pf = pixelFormatName();
     pix_fmt = av_get_pix_fmt(pf.c_str());
-    if (pix_fmt == AV_PIX_FMT_NONE) CV_Error(Error::StsBadArg, "unknown pixel format '" + pf + "'");
-    const AVPixFmtDescriptor* pd = av_pix_fmt_desc_get(pix_fmt);
-    if (pd && (pd->log2_chroma_w || pd->log2_chroma_h) && (size.width % 2 || size.height % 2)) {
-        // 4:2:0 / 4:2:2 need even sizes: keep full chroma instead
-        pf = deep ? "yuv444p10le" : "yuv444p";
-        pix_fmt = av_get_pix_fmt(pf.c_str());
-    }
     enc.reset(avcodec_alloc_context3(codec));
     enc->width = size.width;
     enc->height = size.height;
     enc->pix_fmt = pix_fmt;
-    AVRational tb = opt.time_base[0] > 0 && opt.time_base[1] > 0
-                        ? AVRational{opt.time_base[0], opt.time_base[1]}
-                        : AVRational{1, 90000};
-    if (lower(fs::path(path).extension().string()) == ".avi")
-        tb = av_inv_q(av_d2q(fps, 100000));  // AVI counts frames: its tick is one frame
-    enc->time_base = tb;
+    enc->time_base = videoTimeBase();
     enc->framerate = av_d2q(fps, 100000);
     enc->thread_count = 0;
     const bool rgb = isRgbFormat(pix_fmt);
@@ -1187,11 +1391,11 @@ void VideoSink::Impl::openEncoder(bool deep_frames) {
         (c == "h264" || c == "h265"
              ? (opt.bitrate > 0
                     ? format("%s %lld bit/s %s", codec->name, (long long)opt.bitrate, pf.c_str())
-                    : format("%s crf %d%s %s", codec->name, opt.crf,
+                    : format("%s crf %d%s %s%s", codec->name, opt.crf,
                              rate_floor
                                  ? format(" min %lld bit/s", (long long)opt.min_bitrate).c_str()
                                  : "",
-                             pf.c_str()))
+                             pf.c_str(), trial_note.c_str()))
              : format("%s %s", codec->name, pf.c_str()))
             .c_str(),
         0);
@@ -1542,24 +1746,19 @@ void VideoSink::write(InputArray _frame, double seconds) {
             imwriteAtomic(name, frame);
         }
     } else {
-        if (!m.opened) m.openEncoder(m.deep);
-        Mat bgr = frame;
-        if (frame.channels() == 1) cvtColor(frame, bgr, COLOR_GRAY2BGR);
-        if (av_frame_make_writable(m.vframe.get()) < 0)
-            CV_Error(Error::StsNoMem, "cannot allocate a video frame");
-        const uint8_t* src[4] = {bgr.data, nullptr, nullptr, nullptr};
-        const int stride[4] = {(int)bgr.step[0], 0, 0, 0};
-        sws_scale(m.sws.get(), src, stride, 0, m.size.height, m.vframe->data, m.vframe->linesize);
-        m.vframe->pts = (int64_t)std::llround(seconds / av_q2d(m.enc->time_base));
+        const double tick = av_q2d(m.videoTimeBase());
         if (m.count > 0 &&
-            m.vframe->pts <= (int64_t)std::llround(m.last_t / av_q2d(m.enc->time_base)))
+            (int64_t)std::llround(seconds / tick) <= (int64_t)std::llround(m.last_t / tick))
             CV_Error(Error::StsBadArg,
                      format("frame %d: time %.6f s is within one tick of the previous frame",
                             m.count, seconds));
-        m.next_end = seconds + 1.0 / m.fps;
-        m.pumpAudio(seconds, false);
-        m.adjustRate(seconds, m.vframe->pts);
-        m.encode(m.vframe.get());
+        if (m.trialPending()) {
+            // held until the quality trial has chosen the CRF
+            m.held.emplace_back(frame.clone(), seconds);
+            if ((int)m.held.size() >= m.opt.quality_trial_frames) m.flushHeld();
+        } else {
+            m.encodeVideoFrame(frame, seconds);
+        }
     }
     m.last_t = seconds;
     ++m.count;
@@ -1574,6 +1773,7 @@ void VideoSink::close() {
         m.closed = true;
         return;
     }
+    if (!m.held.empty()) m.flushHeld();   // a video shorter than the quality trial
     if (!m.opened) m.openEncoder(false);  // an empty video: header and trailer only
     m.encode(nullptr);
     m.closed = true;

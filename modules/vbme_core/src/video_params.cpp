@@ -64,6 +64,8 @@ void VideoSinkOptions::read(const FileNode& fn) {
     in("preset", preset);
     in("bitrate", bitrate);
     in("min_bitrate", min_bitrate);
+    in("min_psnr", min_psnr);
+    in("quality_trial_frames", quality_trial_frames);
     in("pix_fmt", pix_fmt);
     in("full_chroma", full_chroma);
     in("color", color);
@@ -90,6 +92,7 @@ void VideoSinkOptions::read(const FileNode& fn) {
 void VideoSinkOptions::write(FileStorage& fs) const {
     fs << "codec" << codec << "crf" << crf << "preset" << preset << "bitrate" << (double)bitrate;
     fs << "min_bitrate" << (double)min_bitrate;
+    fs << "min_psnr" << min_psnr << "quality_trial_frames" << quality_trial_frames;
     fs << "pix_fmt" << pix_fmt;
     fs << "full_chroma" << (int)full_chroma;
     fs << "color"
@@ -117,6 +120,9 @@ void VideoSinkOptions::check() const {
     checkParam(crf >= 0 && crf <= 51, w, "crf", crf, "0..51");
     checkParam(bitrate >= 0, w, "bitrate", (double)bitrate, ">= 0 bit/s (0: use the CRF)");
     checkParam(min_bitrate >= 0, w, "min_bitrate", (double)min_bitrate, ">= 0 bit/s (0: none)");
+    checkParam(min_psnr >= 0 && min_psnr <= 100, w, "min_psnr", min_psnr, "0..100 dB (0: off)");
+    checkParam(quality_trial_frames >= 1 && quality_trial_frames <= 250, w, "quality_trial_frames",
+               quality_trial_frames, "1..250");
     checkParam((time_base[0] == 0 && time_base[1] == 0) || (time_base[0] > 0 && time_base[1] > 0),
                w, "time_base", time_base[0],
                "{0, 0} (automatic) or two positive numbers {num, den}");

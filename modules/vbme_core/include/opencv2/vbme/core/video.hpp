@@ -176,6 +176,21 @@ struct CV_EXPORTS VideoSinkOptions {
     of the packets so far is below 1.1 × this, so the output gets the CRF's rate or this one,
     whichever is higher (doc/vbme_core.md, "Writing", Quality). */
     int64 min_bitrate = 0;
+    /** When > 0 (h264/h265, CRF mode): the lowest PSNR in dB of the coding error wanted, that of
+    the decoded frames against the frames written, both in the output's pixel format and
+    converted back to BGR (so a 4:2:0 conversion's own loss is not counted). Before the first
+    frame is encoded, the first @ref quality_trial_frames frames are encoded and decoded at
+    @ref crf; while their PSNR is below this, the CRF is lowered (down to 0) and the trial
+    repeated, and the video is encoded at the CRF found (never above @ref crf). 48 dB by
+    default: a coding error of that size (MSE 1.03 levels²) costs at most 0.5 dB against any
+    truth the frames are 38.9 dB or further from, e.g. sensor or render noise of σ ≥ 2.9 levels,
+    which x264's CRF 14 loses up to 3 dB against (figures in doc/vbme_core.md, "Writing",
+    Quality). 0: off (the CRF as given). */
+    double min_psnr = 48;
+    /** Frames of the trial encodes of @ref min_psnr (fewer if the video is shorter); the first,
+    a keyframe coded finer than the frames that follow it, is not scored unless it is the
+    only one. */
+    int quality_trial_frames = 4;
     /** Pixel format of the encoded video: "" (default: yuv420p for h264/h265, yuv422p10le for
     prores, bgr0 for ffv1) or e.g. "yuv444p", "yuv420p10le". */
     std::string pix_fmt;
