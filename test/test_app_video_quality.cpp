@@ -104,7 +104,9 @@ void expectVideoKeepsFrames(const char* command, const std::vector<Mat>& frames,
         command, n, p_frames, p_video, p_frames - p_video, mbit, p_opencv, p_frames - p_opencv,
         p_video_frames);
     EXPECT_LE(p_frames - p_video, 0.5) << command;
-    if (peer_loses) EXPECT_GT(p_frames - p_opencv, std::max(0.5, p_frames - p_video)) << command;
+    if (peer_loses) {
+        EXPECT_GT(p_frames - p_opencv, std::max(0.5, p_frames - p_video)) << command;
+    }
 }
 
 }  // namespace
