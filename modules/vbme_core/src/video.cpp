@@ -1029,6 +1029,7 @@ struct VideoSink::Impl {
     std::vector<std::pair<Mat, double>> held;
     std::string trial_note;
     bool trialPending() const;
+    double minPsnr() const;  // VideoSinkOptions::min_psnr, its default resolved
     void runQualityTrial();
     double trialPsnr(const QualityTrialFrames& t, int crf);
     void encodeVideoFrame(const Mat& frame, double seconds);
@@ -1149,8 +1150,12 @@ AVRational VideoSink::Impl::videoTimeBase() const {
                : AVRational{1, 90000};
 }
 
+double VideoSink::Impl::minPsnr() const {
+    return opt.min_psnr >= 0 ? opt.min_psnr : (opt.full_chroma ? 48.0 : 0.0);
+}
+
 bool VideoSink::Impl::trialPending() const {
-    return !trial_done && !sequence && opt.min_psnr > 0 && opt.bitrate == 0 &&
+    return !trial_done && !sequence && minPsnr() > 0 && opt.bitrate == 0 &&
            (opt.codec == "h264" || opt.codec == "h265");
 }
 
@@ -1281,6 +1286,11 @@ void VideoSink::Impl::runQualityTrial() {
         t.refs.push_back(swsToBgr(t.back.get(), f.get(), size, deep ? CV_16UC3 : CV_8UC3));
         t.coded.push_back(std::move(f));
     }
+    // CRF 0 is lossless in 8 bits and needs x264's High 4:4:4 Predictive profile: kept for
+    // full-chroma outputs (already that profile), not for subsampled ones (High profile)
+    const AVPixFmtDescriptor* pd = av_pix_fmt_desc_get(t.pf);
+    const int lowest_crf = pd && (pd->log2_chroma_w || pd->log2_chroma_h) ? 1 : 0;
+    const double floor_db = minPsnr();
     int crf = opt.crf, prev_crf = -1;
     double prev_psnr = 0, psnr = 0;
     std::string tried;
@@ -1291,19 +1301,19 @@ void VideoSink::Impl::runQualityTrial() {
             return;
         }
         tried += format("%s%d: %.2f dB", tried.empty() ? "" : ", ", crf, psnr);
-        if (psnr >= opt.min_psnr || crf == 0) break;
+        if (psnr >= floor_db || crf <= lowest_crf) break;
         double slope = 1.0;
         if (prev_crf > crf && psnr > prev_psnr)
             slope = std::max(0.3, (psnr - prev_psnr) / (prev_crf - crf));
-        const int step = std::max(1, (int)std::ceil((opt.min_psnr + 0.3 - psnr) / slope));
+        const int step = std::max(1, (int)std::ceil((floor_db + 0.3 - psnr) / slope));
         prev_crf = crf;
         prev_psnr = psnr;
-        crf = std::max(0, crf - step);
+        crf = std::max(lowest_crf, crf - step);
     }
     trial_note = format(
         " (crf %d asked; PSNR of the coding error on the first %zu frames at crf "
         "%s; floor %.1f dB)",
-        opt.crf, t.coded.size(), tried.c_str(), opt.min_psnr);
+        opt.crf, t.coded.size(), tried.c_str(), floor_db);
     opt.crf = crf;
 }
 

@@ -120,7 +120,8 @@ void VideoSinkOptions::check() const {
     checkParam(crf >= 0 && crf <= 51, w, "crf", crf, "0..51");
     checkParam(bitrate >= 0, w, "bitrate", (double)bitrate, ">= 0 bit/s (0: use the CRF)");
     checkParam(min_bitrate >= 0, w, "min_bitrate", (double)min_bitrate, ">= 0 bit/s (0: none)");
-    checkParam(min_psnr >= 0 && min_psnr <= 100, w, "min_psnr", min_psnr, "0..100 dB (0: off)");
+    checkParam(min_psnr <= 100, w, "min_psnr", min_psnr,
+               "<= 100 dB (0: off; negative: the default, 48 for full_chroma, else off)");
     checkParam(quality_trial_frames >= 1 && quality_trial_frames <= 250, w, "quality_trial_frames",
                quality_trial_frames, "1..250");
     checkParam((time_base[0] == 0 && time_base[1] == 0) || (time_base[0] > 0 && time_base[1] > 0),

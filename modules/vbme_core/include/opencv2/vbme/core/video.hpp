@@ -181,12 +181,16 @@ struct CV_EXPORTS VideoSinkOptions {
     converted back to BGR (so a 4:2:0 conversion's own loss is not counted). Before the first
     frame is encoded, the first @ref quality_trial_frames frames are encoded and decoded at
     @ref crf; while their PSNR is below this, the CRF is lowered (down to 0) and the trial
-    repeated, and the video is encoded at the CRF found (never above @ref crf). 48 dB by
-    default: a coding error of that size (MSE 1.03 levels²) costs at most 0.5 dB against any
-    truth the frames are 38.9 dB or further from, e.g. sensor or render noise of σ ≥ 2.9 levels,
-    which x264's CRF 14 loses up to 3 dB against (figures in doc/vbme_core.md, "Writing",
-    Quality). 0: off (the CRF as given). */
-    double min_psnr = 48;
+    repeated, and the video is encoded at the CRF found (never above @ref crf; never 0 for a
+    subsampled pixel format such as yuv420p, since x264's CRF 0 is lossless and needs the High
+    4:4:4 Predictive profile, which common players do not decode). 0: off (the CRF as given).
+    Negative (the default): 48 dB for @ref full_chroma outputs (the overlays), off for the
+    others. 48 dB, a coding error of MSE 1.03 levels², costs at most 0.5 dB against any truth
+    the frames are 38.9 dB or further from, e.g. sensor noise of σ ≥ 2.9 levels drawn on by an
+    overlay, which x264's CRF 14 loses up to 3 dB against; the edits' outputs lose at most
+    0.31 dB at plain CRF 14 and would cost 4–6× the bits at the floor (figures in
+    doc/vbme_core.md, "Writing", Quality). */
+    double min_psnr = -1;
     /** Frames of the trial encodes of @ref min_psnr (fewer if the video is shorter); the first,
     a keyframe coded finer than the frames that follow it, is not scored unless it is the
     only one. */
