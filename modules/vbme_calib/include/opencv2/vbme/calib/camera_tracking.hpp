@@ -95,7 +95,19 @@ struct CV_EXPORTS CameraTrackingOptions {
         true;  //!< Ceres bundle adjustment in the room frame, points tied to the box faces
     double plane_tolerance = 0.05;  //!< points this close (m) to a face are tied to it
     double smooth_sigma = 0;        //!< > 0: smoothness prior on the trajectory, width in frames
-    ColmapOptions colmap;           //!< how COLMAP runs
+    /** The track is reported as doubtful (CameraTrackingReport::confident) when the relative
+    spread of the frame-0 depth ratios of the robust scale exceeds this: the COLMAP model's shape
+    does not fit the annotated room. Blender clip, keyframe models: 0.016-0.017 where the track
+    was 0.31-0.37 cm off, 0.022 where it was 0.59-0.64 cm off. */
+    double max_scale_spread = 0.019;
+    /** The track is reported as doubtful when its points' median distance to the nearest face of
+    the room box (CameraTrackingReport::face_distance) exceeds this (metres). */
+    double max_face_distance = 0.0015;
+    /** KEYFRAMES: when a fresh COLMAP model is doubtful by max_scale_spread, COLMAP's mapper is
+    run again on the same features and matches with another random seed, up to this many times,
+    and the model with the smallest scale spread is kept. */
+    int mapper_retries = 2;
+    ColmapOptions colmap;  //!< how COLMAP runs
 
     /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
     key or a value check() refuses is an error. */
@@ -139,6 +151,19 @@ struct CV_EXPORTS CameraTrackingReport {
     /** Whether the joint adjustment's poses were used: not when it moved a frame more than
     0.25 m or 5 degrees from its SfM/PnP pose (the adjustment came apart). */
     bool ba_applied = false;
+    /** Median distance (metres) of the track's 3D points to the nearest face of the room box:
+    the joint adjustment's points (KEYFRAMES, when applied), else the aligned and refined COLMAP
+    points. A track that does not fit the annotated room has it larger. */
+    double face_distance = 0;
+    /** Whether nothing the pipeline can see without ground truth speaks against the track: false
+    when the scale spread exceeds CameraTrackingOptions::max_scale_spread, face_distance exceeds
+    CameraTrackingOptions::max_face_distance, or the joint adjustment came apart; doubt then
+    says why. */
+    bool confident = true;
+    std::string doubt;  //!< why the track is not confident (empty when it is)
+    /** KEYFRAMES: the scale spread of every COLMAP mapper run on the keyframes, in order (the
+    first, then the retries with other seeds; empty when a finished run was reused). */
+    std::vector<double> mapper_scale_spreads;
     /** Wall time of each stage (name, seconds) in order, e.g. decode, keyframes, COLMAP's
     feature_extractor, sequential_matcher, mapper, align, pnp. */
     std::vector<std::pair<std::string, double>> stage_seconds;
