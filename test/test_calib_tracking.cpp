@@ -267,9 +267,11 @@ TEST(CalibTracking, ColmapOnSyntheticHandheldRoom) {
     std::printf(
         "COLMAP: %d/%d frames registered, %d model(s), reprojection RMS "
         "%.3f px, scale %.4f m/unit (spread %.4f, "
-        "%d/%d points), %.1f s\n",
+        "%d/%d points), points %.2f mm from the box's faces (median): %s; %.1f s\n",
         report.registered, n, report.models, report.reprojection_rms, report.scale.scale,
-        report.scale.spread, report.scale.used, report.scale.total, report.seconds);
+        report.scale.spread, report.scale.used, report.scale.total, 1000 * report.face_distance,
+        report.confident ? "confident" : ("NOT confident: " + report.doubt).c_str(),
+        report.seconds);
     std::printf(
         "ATE %.2f cm, worst rotation error %.3f deg, scale error %.2f "
         "%%, floor-point placement RMS %.3f px over %d frames in view\n",
@@ -279,6 +281,7 @@ TEST(CalibTracking, ColmapOnSyntheticHandheldRoom) {
     EXPECT_LE(worst_rot, 0.2);
     EXPECT_LE(scale_err, 0.01);
     EXPECT_LE(placement, 0.5);
+    EXPECT_TRUE(report.confident) << report.doubt;  // a good model is not doubted
 }
 
 TEST(CalibTracking, BlenderScriptUsesBlenderCameraAxes) {

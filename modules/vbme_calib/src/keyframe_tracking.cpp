@@ -302,24 +302,41 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
     bool fresh = false;  // COLMAP ran in this call (not reused): its model may be mapped again
     std::string marker_line;
     const fs::path done = work / "colmap_complete.txt";
+    // The resume marker of a COLMAP run on @p ks: settings, intrinsics (COLMAP's model is made
+    // with them) and keyframes.
+    auto markerOf = [&](const std::vector<int>& ks) {
+        std::ostringstream key_list;
+        const Matx33d& K = frame0.camera.K;
+        key_list << ko.sift_features << " " << ko.overlap << " " << opt.colmap.random_seed << " "
+                 << opt.colmap.vocab_tree << " "
+                 << format("%.10g %.10g %.10g %.10g", K(0, 0), K(1, 1), K(0, 2), K(1, 2)) << ":";
+        for (int k : ks)
+            key_list << " " << k;
+        return key_list.str();
+    };
+    // Every gap between keyframes halved.
+    auto denserOf = [](const std::vector<int>& ks) {
+        std::vector<int> denser;
+        for (size_t k = 0; k < ks.size(); ++k) {
+            denser.push_back(ks[k]);
+            if (k + 1 < ks.size() && ks[k + 1] - ks[k] > 1)
+                denser.push_back((ks[k] + ks[k + 1]) / 2);
+        }
+        return denser;
+    };
     for (int attempt = 0;; ++attempt) {
         const bool can_retry = attempt < 2 && (int)keys.size() < n;
         try {
-            std::ostringstream key_list;
-            // the intrinsics too: COLMAP's model is made with them
-            const Matx33d& K = frame0.camera.K;
-            key_list << ko.sift_features << " " << ko.overlap << " " << opt.colmap.random_seed
-                     << " " << opt.colmap.vocab_tree << " "
-                     << format("%.10g %.10g %.10g %.10g", K(0, 0), K(1, 1), K(0, 2), K(1, 2))
-                     << ":";
-            for (int k : keys)
-                key_list << " " << k;
             models.clear();
             fresh = false;
             {
                 std::ifstream in(done.string());
                 std::string line;
-                if (std::getline(in, line) && line == key_list.str())
+                std::getline(in, line);
+                // a run that kept the model of denser keyframes (below) resumes with them
+                if (!line.empty() && line != markerOf(keys) && line == markerOf(denserOf(keys)))
+                    keys = denserOf(keys);
+                if (!line.empty() && line == markerOf(keys))
                     models = ColmapModel::readTextModels((work / "sparse_txt").string());
             }
             if (models.empty()) {
@@ -336,7 +353,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
                                       co, &rep.stage_seconds, &rep.stage_cpu_seconds);
                 // the marker is written once the model is chosen (below)
                 fresh = true;
-                marker_line = key_list.str();
+                marker_line = markerOf(keys);
             } else {
                 rep.stage_seconds.emplace_back("colmap (reused)", 0.0);
                 rep.stage_cpu_seconds.emplace_back("colmap (reused)", 0.0);
@@ -355,13 +372,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
         }
         if (model) break;
         if (!can_retry) break;
-        // halve every gap between keyframes
-        std::vector<int> denser;
-        for (size_t k = 0; k < keys.size(); ++k) {
-            denser.push_back(keys[k]);
-            if (k + 1 < keys.size() && keys[k + 1] - keys[k] > 1)
-                denser.push_back((keys[k] + keys[k + 1]) / 2);
-        }
+        const std::vector<int> denser = denserOf(keys);
         if (denser.size() == keys.size()) break;
         std::printf(
             "camera tracking: no model holds frame 0 with %zu keyframes; retrying with "
@@ -447,6 +458,72 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
             fs::remove_all(work / "sparse_txt", ec);
             fs::rename(work / (best_dir + "_txt"), work / "sparse_txt", ec);
             if (ec) CV_Error(Error::StsError, "cannot keep the remapped model: " + ec.message());
+        }
+        // Still doubtful: the matches themselves may be at fault (COLMAP's matching is not
+        // repeatable): COLMAP runs once more, from new features and matches, on keyframes twice
+        // as dense; its model is kept if its spread is smaller.
+        const std::vector<int> denser = denserOf(keys);
+        if (rep.scale.spread > opt.max_scale_spread && opt.mapper_retries > 0 &&
+            denser.size() > keys.size()) {
+            std::printf(
+                "camera tracking: still doubtful (scale spread %.4f); COLMAP again on %zu "
+                "keyframes\n",
+                rep.scale.spread, denser.size());
+            std::fflush(stdout);
+            fs::remove_all(work / "kept_txt", ec);
+            fs::rename(work / "sparse_txt", work / "kept_txt", ec);
+            bool adopted = false;
+            try {
+                for (int k : denser)
+                    if (!fs::exists(kdir / frameName(k), ec))
+                        imwriteAtomic((kdir / frameName(k)).string(), gray[k]);
+                std::vector<ColmapModel> alt =
+                    runColmapSfM(kdir.string(), work_dir, frame0.camera.K, frame0.image_size, co,
+                                 &rep.stage_seconds, &rep.stage_cpu_seconds);
+                const ColmapModel* m = nullptr;
+                for (const auto& mm : alt)
+                    if (!m && mm.imageByName(names[0])) m = &mm;
+                if (m) {
+                    StageTimer t_realign(rep, "align (denser)");
+                    CameraTrackingReport r2;
+                    std::map<long long, Vec3d> world2;
+                    CameraPath p2 =
+                        detail::alignToRoomWithPoints(*m, names, frame0, opt, &r2, &world2);
+                    t_realign.stop();
+                    rep.mapper_scale_spreads.push_back(r2.scale.spread);
+                    if (r2.scale.spread < rep.scale.spread &&
+                        10 * r2.registered >= 9 * rep.registered) {
+                        rep.frames = r2.frames;
+                        rep.registered = r2.registered;
+                        rep.interpolated = r2.interpolated;
+                        rep.scale = r2.scale;
+                        rep.reprojection_rms = r2.reprojection_rms;
+                        rep.refined_rms = r2.refined_rms;
+                        rep.plane_points = r2.plane_points;
+                        path = p2;
+                        world = std::move(world2);
+                        models = std::move(alt);
+                        model = nullptr;
+                        for (const auto& mm : models)
+                            if (!model && mm.imageByName(names[0])) model = &mm;
+                        rep.models = (int)models.size();
+                        keys = denser;
+                        rep.keyframes = (int)keys.size();
+                        marker_line = markerOf(keys);
+                        adopted = true;
+                    }
+                }
+            } catch (const cv::Exception& e) {
+                std::printf("camera tracking: COLMAP failed on %zu keyframes: %s\n", denser.size(),
+                            e.err.c_str());
+            }
+            if (adopted) {
+                fs::remove_all(work / "kept_txt", ec);
+            } else {
+                fs::remove_all(work / "sparse_txt", ec);
+                fs::rename(work / "kept_txt", work / "sparse_txt", ec);
+                if (ec) CV_Error(Error::StsError, "cannot restore the kept model: " + ec.message());
+            }
         }
         detail::writeMarker(done.string(), marker_line);
     }

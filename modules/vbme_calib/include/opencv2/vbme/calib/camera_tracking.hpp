@@ -181,7 +181,9 @@ Eq. 5.3 (frame-0 features with a 3D point: depth of the feature's ray on the box
 is frame 0).
 @param frame0 the annotated scene of frame 0 (camera and room).
 @param options robust or mean scale.
-@param report receives counts and the scale.
+@param report receives counts, the scale, the points' median distance to the room's faces
+(face_distance) and whether the track is confident (CameraTrackingReport::confident: false with
+the reason in doubt when the scale spread or the face distance exceeds the limits of @p options).
 @return one pose per video frame; frames absent from the model are interpolated
 (slerp of rotations, linear centres) between their registered neighbours, or
 held at the nearest one beyond the ends, and flagged CameraPath::INTERPOLATED.
@@ -234,9 +236,13 @@ through the whole video and COLMAP's own keyframe observations are triangulated 
 poses (or placed on the room box where their rays are nearly parallel), points near a face of the
 box are tied to it, observations more than 2 px off are dropped; the adjusted poses replace the
 SfM and PnP ones unless a frame moved more than 0.25 m or 5 degrees (report.ba_applied). This
-makes the track depend far less on COLMAP's keyframe model, which varies between runs. Resumable:
-a finished COLMAP run on the same keyframes, settings and intrinsics found in @p work_dir is
-reused.
+makes the track depend far less on COLMAP's keyframe model, which varies between runs. A fresh
+COLMAP model whose frame-0 depth ratios spread more than options.max_scale_spread is mapped again
+(rerunColmapMapper(), other seeds, up to options.mapper_retries times) and the model with the
+smallest spread kept; report.confident and report.doubt say whether the final track is doubtful
+(CameraTrackingOptions::max_scale_spread, max_face_distance, the adjustment coming apart).
+Resumable: a finished COLMAP run on the same keyframes, settings and intrinsics found in @p work_dir
+is reused.
 @param gray the video's frames, 8-bit single channel, of frame0.image_size. */
 CV_EXPORTS CameraPath
 trackCameraKeyframes(InputArrayOfArrays gray, const Scene& frame0, const std::string& work_dir,
