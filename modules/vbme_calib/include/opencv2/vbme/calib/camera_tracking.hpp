@@ -105,7 +105,8 @@ struct CV_EXPORTS CameraTrackingOptions {
     double max_face_distance = 0.0015;
     /** KEYFRAMES: when a fresh COLMAP model is doubtful by max_scale_spread, COLMAP's mapper is
     run again on the same features and matches with another random seed, up to this many times,
-    and the model with the smallest scale spread is kept. */
+    and the model with the smallest scale spread is kept; if it is still doubtful, COLMAP runs
+    once more from new features and matches (0: none of this). */
     int mapper_retries = 2;
     ColmapOptions colmap;  //!< how COLMAP runs
 
@@ -239,10 +240,11 @@ SfM and PnP ones unless a frame moved more than 0.25 m or 5 degrees (report.ba_a
 makes the track depend far less on COLMAP's keyframe model, which varies between runs. A fresh
 COLMAP model whose frame-0 depth ratios spread more than options.max_scale_spread is mapped again
 (rerunColmapMapper(), other seeds, up to options.mapper_retries times) and the model with the
-smallest spread kept; report.confident and report.doubt say whether the final track is doubtful
-(CameraTrackingOptions::max_scale_spread, max_face_distance, the adjustment coming apart).
-Resumable: a finished COLMAP run on the same keyframes, settings and intrinsics found in @p work_dir
-is reused.
+smallest spread kept; if it stays doubtful, COLMAP runs once more on the same keyframes (new
+features and matches) and its model is kept if its spread is smaller; report.confident and
+report.doubt say whether the final track is doubtful (CameraTrackingOptions::max_scale_spread,
+max_face_distance, the adjustment coming apart). Resumable: a finished COLMAP run on the same
+keyframes, settings and intrinsics found in @p work_dir is reused.
 @param gray the video's frames, 8-bit single channel, of frame0.image_size. */
 CV_EXPORTS CameraPath
 trackCameraKeyframes(InputArrayOfArrays gray, const Scene& frame0, const std::string& work_dir,
