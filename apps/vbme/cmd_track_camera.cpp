@@ -1,6 +1,7 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see
 // LICENSE). vbme track-camera: camera path of a hand-held video in the
 // annotated room's frame (COLMAP).
+#include <algorithm>
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
@@ -138,13 +139,23 @@ void runTrackCamera(const TrackCameraOptions& o) {
                << (r.frames ? r.seconds / r.frames : 0.0);
             auto stageMap = [&](const char* name,
                                 const std::vector<std::pair<std::string, double>>& stages) {
-                fs << name << "{";
+                // A stage run more than once (COLMAP again on a doubtful model) is summed: a map
+                // holds each key once.
+                std::vector<std::pair<std::string, double>> summed;
                 for (const auto& st : stages) {
                     std::string key = st.first;
                     for (char& ch : key)
                         if (!std::isalnum((unsigned char)ch)) ch = '_';
-                    fs << key << st.second;
+                    auto it = std::find_if(summed.begin(), summed.end(),
+                                           [&](const auto& kv) { return kv.first == key; });
+                    if (it == summed.end())
+                        summed.emplace_back(key, st.second);
+                    else
+                        it->second += st.second;
                 }
+                fs << name << "{";
+                for (const auto& kv : summed)
+                    fs << kv.first << kv.second;
                 fs << "}";
             };
             fs << "mapper_scale_spreads"
