@@ -97,8 +97,8 @@ struct CV_EXPORTS CameraTrackingOptions {
     double smooth_sigma = 0;        //!< > 0: smoothness prior on the trajectory, width in frames
     /** The track is reported as doubtful (CameraTrackingReport::confident) when the relative
     spread of the frame-0 depth ratios of the robust scale exceeds this: the COLMAP model's shape
-    does not fit the annotated room. Blender clip, keyframe models: 0.016-0.017 where the track
-    was 0.31-0.37 cm off, 0.022 where it was 0.59-0.64 cm off. */
+    does not fit the annotated room. Blender clip, keyframe models: 0.0160-0.0176 where the track
+    was 0.31-0.40 cm off, 0.0207-0.0244 where it was 0.48 cm to 58 cm off. */
     double max_scale_spread = 0.019;
     /** The track is reported as doubtful when its points' median distance to the nearest face of
     the room box (CameraTrackingReport::face_distance) exceeds this (metres). */
