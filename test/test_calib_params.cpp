@@ -123,6 +123,9 @@ TEST(CalibParams, CameraTrackingOptions) {
     o.refine = false;
     o.plane_tolerance = 0.1;
     o.smooth_sigma = 2.0;
+    o.max_scale_spread = 0.03;
+    o.max_face_distance = 0.004;
+    o.mapper_retries = 1;
     o.colmap = changedColmap();
     expectRoundTrip(o);
     expectUnknownKeyRefused<CameraTrackingOptions>("pnp_max_rms");
@@ -132,4 +135,7 @@ TEST(CalibParams, CameraTrackingOptions) {
     bad = CameraTrackingOptions();
     bad.colmap.overlap = 0;
     expectRejected(bad, "overlap");
+    bad = CameraTrackingOptions();
+    bad.mapper_retries = -1;
+    expectRejected(bad, "mapper_retries");
 }

@@ -267,9 +267,11 @@ TEST(CalibTracking, ColmapOnSyntheticHandheldRoom) {
     std::printf(
         "COLMAP: %d/%d frames registered, %d model(s), reprojection RMS "
         "%.3f px, scale %.4f m/unit (spread %.4f, "
-        "%d/%d points), %.1f s\n",
+        "%d/%d points), points %.2f mm from the box's faces (median): %s; %.1f s\n",
         report.registered, n, report.models, report.reprojection_rms, report.scale.scale,
-        report.scale.spread, report.scale.used, report.scale.total, report.seconds);
+        report.scale.spread, report.scale.used, report.scale.total, 1000 * report.face_distance,
+        report.confident ? "confident" : ("NOT confident: " + report.doubt).c_str(),
+        report.seconds);
     std::printf(
         "ATE %.2f cm, worst rotation error %.3f deg, scale error %.2f "
         "%%, floor-point placement RMS %.3f px over %d frames in view\n",
@@ -279,6 +281,7 @@ TEST(CalibTracking, ColmapOnSyntheticHandheldRoom) {
     EXPECT_LE(worst_rot, 0.2);
     EXPECT_LE(scale_err, 0.01);
     EXPECT_LE(placement, 0.5);
+    EXPECT_TRUE(report.confident) << report.doubt;  // a good model is not doubted
 }
 
 TEST(CalibTracking, BlenderScriptUsesBlenderCameraAxes) {
@@ -367,3 +370,97 @@ TEST(CalibTracking, TexturedRoomSequenceMatchesVbmeRender) {
     }
 }
 #endif
+
+namespace {
+
+// A COLMAP model of the synthetic room seen by @p cams: points on the box's faces where a 12 x 9
+// grid of frame 0's and the last frame's pixels hit it, observed (with 0.3 px noise) by every
+// camera that sees them; the model frame is the world scaled by 1/2.
+ColmapModel roomModel(const std::vector<Camera>& cams, const Room& room, Size size) {
+    const double a = 0.5;
+    ColmapModel m;
+    ColmapCamera cc;
+    cc.size = size;
+    const Matx33d& K = cams[0].K;
+    cc.params = {K(0, 0), K(1, 1), K(0, 2) + 0.5, K(1, 2) + 0.5};
+    m.cameras[1] = cc;
+    for (size_t i = 0; i < cams.size(); ++i) {
+        ColmapImage im;
+        im.id = (int)i + 1;
+        im.R = cams[i].R;
+        im.t = cams[i].t * a;
+        im.name = format("frame_%05d.png", (int)i);
+        m.images[im.id] = im;
+    }
+    RNG rng(7);
+    long long id = 0;
+    for (const Camera* src : {&cams.front(), &cams.back()})
+        for (int gy = 0; gy < 9; ++gy)
+            for (int gx = 0; gx < 12; ++gx) {
+                const Point2d px((gx + 0.5) * size.width / 12, (gy + 0.5) * size.height / 9);
+                const Vec3d X =
+                    src->center() + src->rayDirection(px) * (boxDepthAt(*src, room, px) /
+                                                             (src->R * src->rayDirection(px))[2]);
+                ColmapPoint p;
+                p.id = ++id;
+                p.xyz = X * a;
+                p.error = 0.3;
+                for (size_t i = 0; i < cams.size(); ++i) {
+                    const Vec3d xc = cams[i].camFromWorld(X);
+                    if (xc[2] <= 0.1) continue;
+                    const Point2d q(K(0, 0) * xc[0] / xc[2] + K(0, 2) + rng.gaussian(0.3),
+                                    K(1, 1) * xc[1] / xc[2] + K(1, 2) + rng.gaussian(0.3));
+                    if (q.x < 0 || q.y < 0 || q.x > size.width - 1 || q.y > size.height - 1)
+                        continue;
+                    ColmapImage& im = m.images[(int)i + 1];
+                    p.track.emplace_back(im.id, (int)im.xys.size());
+                    im.xys.emplace_back(q.x + 0.5, q.y + 0.5);
+                    im.point3d_ids.push_back(p.id);
+                }
+                m.points[p.id] = p;
+            }
+    return m;
+}
+
+}  // namespace
+
+TEST(CalibTracking, ModelThatDoesNotFitTheRoomIsNotConfident) {
+    // The full method's guard, without COLMAP: a model that fits the annotated room is
+    // confident; one that does not gives a wrong track, and says so.
+    const Scene s0 = syntheticRoomScene();
+    const int n = 8;
+    const std::vector<Camera> truth = handheldCameraPath(s0.camera, n, 0.6, 0.0, 0.0, 3);
+    ColmapModel good = roomModel(truth, s0.room, s0.image_size);
+    std::vector<std::string> names;
+    for (int i = 0; i < n; ++i)
+        names.push_back(format("frame_%05d.png", i));
+    auto ate = [&](const CameraPath& p) {
+        double se = 0;
+        for (int i = 0; i < n; ++i)
+            se += std::pow(norm(p.camera(i).center() - truth[i].center()), 2);
+        return std::sqrt(se / n);
+    };
+    CameraTrackingReport rg, rw;
+    const CameraPath pg = alignToRoom(good, names, s0, CameraTrackingOptions(), &rg);
+    // The same camera path in a room 1.2 m wider to the side and 0.8 m deeper: a self-consistent
+    // model (as COLMAP's are, even when wrong) that does not fit the annotated room.
+    Room other = s0.room;
+    other.max[0] += 1.2;
+    other.max[1] += 0.8;
+    const ColmapModel wrong = roomModel(truth, other, s0.image_size);
+    const CameraPath pw = alignToRoom(wrong, names, s0, CameraTrackingOptions(), &rw);
+    std::printf(
+        "model that fits the room: ATE %.2f cm, scale spread %.4f, points %.2f mm from the faces "
+        "(%s)\nin a room that is not the annotated one: ATE %.2f cm, scale spread %.4f, points "
+        "%.2f "
+        "mm from the faces (%s)\n",
+        100 * ate(pg), rg.scale.spread, 1000 * rg.face_distance, rg.doubt.c_str(), 100 * ate(pw),
+        rw.scale.spread, 1000 * rw.face_distance, rw.doubt.c_str());
+    EXPECT_LT(ate(pg), 0.01);
+    EXPECT_TRUE(rg.confident) << rg.doubt;
+    // measured: 0.35 cm, spread 0.0015, 0.16 mm; the wrong room: 3.71 cm, 0.0198, 172.5 mm
+    EXPECT_GT(ate(pw), 0.02);    // the track is wrong...
+    EXPECT_FALSE(rw.confident);  // ...and says why
+    EXPECT_GT(rw.face_distance, CameraTrackingOptions().max_face_distance);
+    EXPECT_NE(rw.doubt.find("room's faces"), std::string::npos) << rw.doubt;
+}

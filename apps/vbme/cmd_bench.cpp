@@ -579,6 +579,14 @@ void benchTrackCamera(const BenchOptions& o) {
                 "px), %.1f %% of the points on the box's faces\n",
                 r.ba_applied ? "" : " (not applied)", r.ba_points, r.ba_observations, r.ba_rms,
                 r.ba_worst_frame_rms, 100 * r.ba_on_face);
+        std::string spreads;
+        for (double v : r.mapper_scale_spreads)
+            spreads += format(" %.4f", v);
+        std::printf(
+            "  confidence: scale spread %.4f (mapper runs:%s), points %.2f mm from the box's "
+            "faces: %s\n",
+            r.scale.spread, spreads.empty() ? " reused" : spreads.c_str(), 1000 * r.face_distance,
+            r.confident ? "confident" : ("NOT confident: " + r.doubt).c_str());
         for (int src = -1; src < 3; ++src) {
             double se = 0, worst = 0, worst_rot = 0;
             int count = 0;

@@ -1,6 +1,7 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see
 // LICENSE). vbme track-camera: camera path of a hand-held video in the
 // annotated room's frame (COLMAP).
+#include <algorithm>
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
@@ -132,19 +133,36 @@ void runTrackCamera(const TrackCameraOptions& o) {
                << "reprojection_rms_px" << r.reprojection_rms << "refined_reprojection_rms_px"
                << r.refined_rms << "points_on_box_faces" << r.plane_points << "scale_m_per_unit"
                << r.scale.scale << "scale_relative_spread" << r.scale.spread << "scale_points_used"
-               << r.scale.used << "scale_points_total" << r.scale.total << "seconds" << r.seconds
-               << "seconds_per_frame" << (r.frames ? r.seconds / r.frames : 0.0);
+               << r.scale.used << "scale_points_total" << r.scale.total << "face_distance_m"
+               << r.face_distance << "confident" << (int)r.confident << "doubt" << r.doubt
+               << "seconds" << r.seconds << "seconds_per_frame"
+               << (r.frames ? r.seconds / r.frames : 0.0);
             auto stageMap = [&](const char* name,
                                 const std::vector<std::pair<std::string, double>>& stages) {
-                fs << name << "{";
+                // A stage run more than once (COLMAP again on a doubtful model) is summed: a map
+                // holds each key once.
+                std::vector<std::pair<std::string, double>> summed;
                 for (const auto& st : stages) {
                     std::string key = st.first;
                     for (char& ch : key)
                         if (!std::isalnum((unsigned char)ch)) ch = '_';
-                    fs << key << st.second;
+                    auto it = std::find_if(summed.begin(), summed.end(),
+                                           [&](const auto& kv) { return kv.first == key; });
+                    if (it == summed.end())
+                        summed.emplace_back(key, st.second);
+                    else
+                        it->second += st.second;
                 }
+                fs << name << "{";
+                for (const auto& kv : summed)
+                    fs << kv.first << kv.second;
                 fs << "}";
             };
+            fs << "mapper_scale_spreads"
+               << "[";
+            for (double v : r.mapper_scale_spreads)
+                fs << v;
+            fs << "]";
             stageMap("stage_seconds", r.stage_seconds);
             stageMap("stage_cpu_seconds", r.stage_cpu_seconds);
         }
@@ -164,12 +182,14 @@ void runTrackCamera(const TrackCameraOptions& o) {
         "joint adjustment%s: %d points, %d observations, RMS %.3f px (worst frame %.3f px), "
         "%.0f %% of the points on the box's faces\n"
         "reprojection RMS %.3f px (%.3f px after refinement, %d points tied to the box)\n"
-        "scale %.5f m per SfM unit from %d of %d frame-0 points (relative spread %.4f)\n"
+        "scale %.5f m per SfM unit from %d of %d frame-0 points (relative spread %.4f); points "
+        "%.2f mm from the box's faces (median): %s\n"
         "%.1f s (%.2f s/frame); written: %s, %s, COLMAP text model %s\n",
         r.frames, r.registered, r.pnp, r.pnp_rms, r.pnp_inliers, r.interpolated, r.models,
         r.ba_applied ? "" : " (not applied)", r.ba_points, r.ba_observations, r.ba_rms,
         r.ba_worst_frame_rms, 100 * r.ba_on_face, r.reprojection_rms, r.refined_rms, r.plane_points,
-        r.scale.scale, r.scale.used, r.scale.total, r.scale.spread, r.seconds,
+        r.scale.scale, r.scale.used, r.scale.total, r.scale.spread, 1000 * r.face_distance,
+        r.confident ? "confident" : ("NOT confident: " + r.doubt).c_str(), r.seconds,
         r.frames ? r.seconds / r.frames : 0.0, o.out.c_str(), report.c_str(), colmap_dir.c_str());
 }
 

@@ -86,6 +86,14 @@ one (slerp of rotations, linear centres), or held at the nearest one beyond the 
 CameraPath::INTERPOLATED. @return how many frames were interpolated. */
 int interpolateMissing(CameraPath& path, const std::vector<bool>& have);
 
+/** Median distance (metres) of @p points to the nearest face of @p room (0 when empty). */
+double medianFaceDistance(const std::vector<Vec3d>& points, const Room& room);
+
+/** Sets report.confident and report.doubt from report.scale.spread and report.face_distance
+against the limits of @p options, and (when @p joint_adjustment ran) report.ba_applied. */
+void judgeConfidence(const CameraTrackingOptions& options, bool joint_adjustment,
+                     CameraTrackingReport& report);
+
 /** alignToRoom() that also returns the model's points in the world frame (refined when
 options.refine), by POINT3D_ID. */
 CameraPath alignToRoomWithPoints(const ColmapModel& model, const std::vector<std::string>& names,

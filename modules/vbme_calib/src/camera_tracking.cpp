@@ -10,6 +10,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <map>
 #include <numeric>
 #include <sstream>
 
@@ -86,6 +88,38 @@ ScaleEstimate scaleRobust(const std::vector<double>& box, const std::vector<doub
         w.push_back(errors.empty() ? 1.0 : 1.0 / (errors[i] + 0.5));
     }
     return summarise(r, w, (int)box.size());
+}
+
+double detail::medianFaceDistance(const std::vector<Vec3d>& points, const Room& room) {
+    if (points.empty()) return 0;
+    std::vector<double> d;
+    d.reserve(points.size());
+    for (const Vec3d& X : points) {
+        double best = std::numeric_limits<double>::infinity();
+        for (int a = 0; a < 3; ++a)
+            best = std::min({best, std::abs(X[a] - room.min[a]), std::abs(X[a] - room.max[a])});
+        d.push_back(best);
+    }
+    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+    return d[d.size() / 2];
+}
+
+void detail::judgeConfidence(const CameraTrackingOptions& o, bool joint_adjustment,
+                             CameraTrackingReport& r) {
+    std::string doubt;
+    auto add = [&](const std::string& d) { doubt += (doubt.empty() ? "" : "; ") + d; };
+    if (r.scale.spread > o.max_scale_spread)
+        add(
+            format("the frame-0 points' depths disagree with the room box (scale spread %.4f > "
+                   "%.4f): COLMAP's model is likely distorted",
+                   r.scale.spread, o.max_scale_spread));
+    if (r.face_distance > o.max_face_distance)
+        add(format("the track's points lie %.2f mm from the room's faces (median; limit %.2f mm)",
+                   1000 * r.face_distance, 1000 * o.max_face_distance));
+    if (joint_adjustment && !r.ba_applied)
+        add("the joint adjustment came apart and was not applied");
+    r.confident = doubt.empty();
+    r.doubt = doubt;
 }
 
 namespace {
@@ -201,12 +235,13 @@ CameraPath detail::alignToRoomWithPoints(const ColmapModel& model,
         ++registered;
     }
     detail::RefineSummary refined;
+    std::map<long long, Vec3d> world;
     if (opt.refine)
         refined = detail::refineTrack(model, names, frame0, M, c, s, opt.plane_tolerance,
-                                      opt.smooth_sigma, path, world_points);
-    else if (world_points)
+                                      opt.smooth_sigma, path, &world);
+    else
         for (const auto& kv : model.points)
-            (*world_points)[kv.first] = M.t() * (s * kv.second.xyz - c);
+            world[kv.first] = M.t() * (s * kv.second.xyz - c);
     // Frames the model lacks: interpolate between registered neighbours, hold beyond the ends.
     const int interpolated = detail::interpolateMissing(path, have);
     if (report) {
@@ -223,7 +258,14 @@ CameraPath detail::alignToRoomWithPoints(const ColmapModel& model,
         report->reprojection_rms = opt.refine ? refined.rms_before : (n ? std::sqrt(se / n) : 0);
         report->refined_rms = opt.refine ? refined.rms_after : report->reprojection_rms;
         report->plane_points = refined.plane_points;
+        std::vector<Vec3d> points;
+        points.reserve(world.size());
+        for (const auto& kv : world)
+            points.push_back(kv.second);
+        report->face_distance = detail::medianFaceDistance(points, frame0.room);
+        detail::judgeConfidence(opt, false, *report);
     }
+    if (world_points) *world_points = std::move(world);
     return path;
 }
 
@@ -245,6 +287,7 @@ CameraPath alignModelWithFrame0(const std::vector<ColmapModel>& models,
     CameraTrackingReport r;
     CameraPath path = alignToRoom(*chosen, names, frame0, opt, &r);
     r.models = (int)models.size();
+    if (!r.confident) std::printf("camera tracking: WARNING: %s\n", r.doubt.c_str());
     r.seconds = total.seconds();
     if (report) *report = r;
     return path;

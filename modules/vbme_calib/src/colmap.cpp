@@ -270,18 +270,92 @@ void runStep(const ColmapOptions& o, const std::string& step, const Args& args,
 
 }  // namespace
 
+namespace {
+
+// Runs a colmap step and records its wall and CPU time.
+void timedStep(const ColmapOptions& o, const std::string& step, const Args& args,
+               const std::string& log, std::vector<std::pair<std::string, double>>* step_seconds,
+               std::vector<std::pair<std::string, double>>* step_cpu_seconds) {
+    const double cpu0 = childCpuSeconds();
+    ScopedTimer timer([&](double s) {
+        if (step_seconds) step_seconds->emplace_back(step, s);
+    });
+    runStep(o, step, args, log);
+    timer.stop();
+    if (step_cpu_seconds) step_cpu_seconds->emplace_back(step, childCpuSeconds() - cpu0);
+}
+
+// COLMAP's mapper on the database of @p work_dir into work_dir/<sparse_name>, converted to text
+// in work_dir/<text_name> (both emptied first); the models read back.
+std::vector<ColmapModel> mapAndConvert(const std::string& image_dir, const std::string& work_dir,
+                                       const std::string& sparse_name, const std::string& text_name,
+                                       const ColmapOptions& o,
+                                       std::vector<std::pair<std::string, double>>* step_seconds,
+                                       std::vector<std::pair<std::string, double>>* step_cpu) {
+    const fs::path work(work_dir);
+    const std::string log = (work / "colmap.log").string(), db = (work / "database.db").string();
+    const fs::path sparse = work / sparse_name, text = work / text_name;
+    std::error_code ec;
+    fs::remove_all(sparse, ec);
+    fs::remove_all(text, ec);
+    fs::create_directories(sparse, ec);
+    timedStep(o, "mapper",
+              {"--random_seed",
+               std::to_string(o.random_seed),
+               "--database_path",
+               db,
+               "--image_path",
+               image_dir,
+               "--output_path",
+               sparse.string(),
+               "--Mapper.num_threads",
+               std::to_string(o.mapper_threads),
+               "--Mapper.ba_refine_focal_length",
+               "0",
+               "--Mapper.ba_refine_principal_point",
+               "0",
+               "--Mapper.ba_refine_extra_params",
+               "0",
+               "--Mapper.min_model_size",
+               std::to_string(o.min_model_size),
+               "--Mapper.abs_pose_min_num_inliers",
+               std::to_string(o.abs_pose_min_num_inliers)},
+              log, step_seconds, step_cpu);
+    for (const auto& e : fs::directory_iterator(sparse, ec)) {
+        if (!e.is_directory()) continue;
+        const fs::path out = text / e.path().filename();
+        fs::create_directories(out, ec);
+        runStep(o, "model_converter",
+                {"--input_path", e.path().string(), "--output_path", out.string(), "--output_type",
+                 "TXT"},
+                log);
+    }
+    return ColmapModel::readTextModels(text.string());
+}
+
+}  // namespace
+
+std::vector<ColmapModel> rerunColmapMapper(
+    const std::string& image_dir, const std::string& work_dir, const std::string& output_name,
+    const ColmapOptions& o, std::vector<std::pair<std::string, double>>* step_seconds,
+    std::vector<std::pair<std::string, double>>* step_cpu_seconds) {
+    const fs::path work(work_dir);
+    std::error_code ec;
+    if (!fs::exists(work / "database.db", ec))
+        CV_Error(Error::StsError, "no COLMAP database in '" + work_dir + "' to map again");
+    if (output_name.empty() || output_name == "sparse" || output_name == "sparse_txt")
+        CV_Error(Error::StsBadArg, "rerunColmapMapper: output_name '" + output_name +
+                                       "' would overwrite runColmapSfM's models");
+    return mapAndConvert(image_dir, work_dir, output_name, output_name + "_txt", o, step_seconds,
+                         step_cpu_seconds);
+}
+
 std::vector<ColmapModel> runColmapSfM(
     const std::string& image_dir, const std::string& work_dir, const Matx33d& K, Size size,
     const ColmapOptions& o, std::vector<std::pair<std::string, double>>* step_seconds,
     std::vector<std::pair<std::string, double>>* step_cpu_seconds) {
     auto timed = [&](const std::string& step, const Args& args, const std::string& log) {
-        const double cpu0 = childCpuSeconds();
-        ScopedTimer timer([&](double s) {
-            if (step_seconds) step_seconds->emplace_back(step, s);
-        });
-        runStep(o, step, args, log);
-        timer.stop();
-        if (step_cpu_seconds) step_cpu_seconds->emplace_back(step, childCpuSeconds() - cpu0);
+        timedStep(o, step, args, log, step_seconds, step_cpu_seconds);
     };
     std::error_code ec;
     if (!fs::is_directory(image_dir, ec))
@@ -290,11 +364,7 @@ std::vector<ColmapModel> runColmapSfM(
     if (ec) CV_Error(Error::StsError, "cannot create '" + work_dir + "': " + ec.message());
     const fs::path work(work_dir);
     const std::string log = (work / "colmap.log").string(), db = (work / "database.db").string();
-    const fs::path sparse = work / "sparse", text = work / "sparse_txt";
     fs::remove(db, ec);
-    fs::remove_all(sparse, ec);
-    fs::remove_all(text, ec);
-    fs::create_directories(sparse, ec);
 
     // PINHOLE with COLMAP's +0.5 pixel-centre convention.
     const std::string params =
@@ -319,24 +389,8 @@ std::vector<ColmapModel> runColmapSfM(
         match.insert(match.end(), {"--SequentialMatching.loop_detection", "1",
                                    "--SequentialMatching.vocab_tree_path", o.vocab_tree});
     timed("sequential_matcher", match, log);
-    timed("mapper",
-          with({"--database_path", db, "--image_path", image_dir, "--output_path", sparse.string(),
-                "--Mapper.num_threads", std::to_string(o.mapper_threads),
-                "--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_principal_point", "0",
-                "--Mapper.ba_refine_extra_params", "0", "--Mapper.min_model_size",
-                std::to_string(o.min_model_size), "--Mapper.abs_pose_min_num_inliers",
-                std::to_string(o.abs_pose_min_num_inliers)}),
-          log);
-    for (const auto& e : fs::directory_iterator(sparse, ec)) {
-        if (!e.is_directory()) continue;
-        const fs::path out = text / e.path().filename();
-        fs::create_directories(out, ec);
-        runStep(o, "model_converter",
-                {"--input_path", e.path().string(), "--output_path", out.string(), "--output_type",
-                 "TXT"},
-                log);
-    }
-    std::vector<ColmapModel> models = ColmapModel::readTextModels(text.string());
+    std::vector<ColmapModel> models = mapAndConvert(image_dir, work_dir, "sparse", "sparse_txt", o,
+                                                    step_seconds, step_cpu_seconds);
     if (models.empty())
         CV_Error(Error::StsError, "COLMAP reconstructed nothing from '" + image_dir +
                                       "' (too little texture or motion?); its output is in " + log);

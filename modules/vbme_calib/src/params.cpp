@@ -115,6 +115,9 @@ void CameraTrackingOptions::read(const FileNode& fn) {
     in("refine", refine);
     in("plane_tolerance", plane_tolerance);
     in("smooth_sigma", smooth_sigma);
+    in("max_scale_spread", max_scale_spread);
+    in("max_face_distance", max_face_distance);
+    in("mapper_retries", mapper_retries);
     in("colmap", colmap);
     in.finish();
     check();
@@ -126,7 +129,9 @@ void CameraTrackingOptions::write(FileStorage& fs) const {
     fs << "pnp" << (int)pnp << "pnp_min_inliers" << pnp_min_inliers << "pnp_max_rms" << pnp_max_rms
        << "global_refine" << (int)global_refine << "robust_scale" << (int)robust_scale
        << "scale_tolerance" << scale_tolerance << "stride" << stride << "refine" << (int)refine
-       << "plane_tolerance" << plane_tolerance << "smooth_sigma" << smooth_sigma;
+       << "plane_tolerance" << plane_tolerance << "smooth_sigma" << smooth_sigma
+       << "max_scale_spread" << max_scale_spread << "max_face_distance" << max_face_distance
+       << "mapper_retries" << mapper_retries;
     writeMap(fs, "colmap", colmap);
 }
 
@@ -141,6 +146,9 @@ void CameraTrackingOptions::check() const {
     checkParam(stride >= 1, w, "stride", stride, ">= 1");
     checkParam(plane_tolerance > 0, w, "plane_tolerance", plane_tolerance, "> 0 m");
     checkParam(smooth_sigma >= 0, w, "smooth_sigma", smooth_sigma, ">= 0 frames (0: off)");
+    checkParam(max_scale_spread > 0, w, "max_scale_spread", max_scale_spread, "> 0");
+    checkParam(max_face_distance > 0, w, "max_face_distance", max_face_distance, "> 0 m");
+    checkParam(mapper_retries >= 0, w, "mapper_retries", mapper_retries, ">= 0");
     colmap.check();
 }
 

@@ -95,7 +95,20 @@ struct CV_EXPORTS CameraTrackingOptions {
         true;  //!< Ceres bundle adjustment in the room frame, points tied to the box faces
     double plane_tolerance = 0.05;  //!< points this close (m) to a face are tied to it
     double smooth_sigma = 0;        //!< > 0: smoothness prior on the trajectory, width in frames
-    ColmapOptions colmap;           //!< how COLMAP runs
+    /** The track is reported as doubtful (CameraTrackingReport::confident) when the relative
+    spread of the frame-0 depth ratios of the robust scale exceeds this: the COLMAP model's shape
+    does not fit the annotated room. Blender clip, keyframe models: 0.0160-0.0176 where the track
+    was 0.31-0.40 cm off, 0.0207-0.0244 where it was 0.48 cm to 58 cm off. */
+    double max_scale_spread = 0.019;
+    /** The track is reported as doubtful when its points' median distance to the nearest face of
+    the room box (CameraTrackingReport::face_distance) exceeds this (metres). */
+    double max_face_distance = 0.0015;
+    /** KEYFRAMES: when a fresh COLMAP model is doubtful by max_scale_spread, COLMAP's mapper is
+    run again on the same features and matches with another random seed, up to this many times,
+    and the model with the smallest scale spread is kept; if it is still doubtful, COLMAP runs
+    once more from new features and matches (0: none of this). */
+    int mapper_retries = 2;
+    ColmapOptions colmap;  //!< how COLMAP runs
 
     /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
     key or a value check() refuses is an error. */
@@ -139,6 +152,19 @@ struct CV_EXPORTS CameraTrackingReport {
     /** Whether the joint adjustment's poses were used: not when it moved a frame more than
     0.25 m or 5 degrees from its SfM/PnP pose (the adjustment came apart). */
     bool ba_applied = false;
+    /** Median distance (metres) of the track's 3D points to the nearest face of the room box:
+    the joint adjustment's points (KEYFRAMES, when applied), else the aligned and refined COLMAP
+    points. A track that does not fit the annotated room has it larger. */
+    double face_distance = 0;
+    /** Whether nothing the pipeline can see without ground truth speaks against the track: false
+    when the scale spread exceeds CameraTrackingOptions::max_scale_spread, face_distance exceeds
+    CameraTrackingOptions::max_face_distance, or the joint adjustment came apart; doubt then
+    says why. */
+    bool confident = true;
+    std::string doubt;  //!< why the track is not confident (empty when it is)
+    /** KEYFRAMES: the scale spread of every COLMAP mapper run on the keyframes, in order (the
+    first, then the retries with other seeds; empty when a finished run was reused). */
+    std::vector<double> mapper_scale_spreads;
     /** Wall time of each stage (name, seconds) in order, e.g. decode, keyframes, COLMAP's
     feature_extractor, sequential_matcher, mapper, align, pnp. */
     std::vector<std::pair<std::string, double>> stage_seconds;
@@ -156,7 +182,9 @@ Eq. 5.3 (frame-0 features with a 3D point: depth of the feature's ray on the box
 is frame 0).
 @param frame0 the annotated scene of frame 0 (camera and room).
 @param options robust or mean scale.
-@param report receives counts and the scale.
+@param report receives counts, the scale, the points' median distance to the room's faces
+(face_distance) and whether the track is confident (CameraTrackingReport::confident: false with
+the reason in doubt when the scale spread or the face distance exceeds the limits of @p options).
 @return one pose per video frame; frames absent from the model are interpolated
 (slerp of rotations, linear centres) between their registered neighbours, or
 held at the nearest one beyond the ends, and flagged CameraPath::INTERPOLATED.
@@ -209,9 +237,14 @@ through the whole video and COLMAP's own keyframe observations are triangulated 
 poses (or placed on the room box where their rays are nearly parallel), points near a face of the
 box are tied to it, observations more than 2 px off are dropped; the adjusted poses replace the
 SfM and PnP ones unless a frame moved more than 0.25 m or 5 degrees (report.ba_applied). This
-makes the track depend far less on COLMAP's keyframe model, which varies between runs. Resumable:
-a finished COLMAP run on the same keyframes, settings and intrinsics found in @p work_dir is
-reused.
+makes the track depend far less on COLMAP's keyframe model, which varies between runs. A fresh
+COLMAP model whose frame-0 depth ratios spread more than options.max_scale_spread is mapped again
+(rerunColmapMapper(), other seeds, up to options.mapper_retries times) and the model with the
+smallest spread kept; if it stays doubtful, COLMAP runs once more on the same keyframes (new
+features and matches) and its model is kept if its spread is smaller; report.confident and
+report.doubt say whether the final track is doubtful (CameraTrackingOptions::max_scale_spread,
+max_face_distance, the adjustment coming apart). Resumable: a finished COLMAP run on the same
+keyframes, settings and intrinsics found in @p work_dir is reused.
 @param gray the video's frames, 8-bit single channel, of frame0.image_size. */
 CV_EXPORTS CameraPath
 trackCameraKeyframes(InputArrayOfArrays gray, const Scene& frame0, const std::string& work_dir,

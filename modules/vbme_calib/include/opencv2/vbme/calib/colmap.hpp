@@ -120,6 +120,19 @@ CV_EXPORTS std::vector<ColmapModel> runColmapSfM(
     const ColmapOptions& options = ColmapOptions(),
     std::vector<std::pair<std::string, double>>* step_seconds = nullptr,
     std::vector<std::pair<std::string, double>>* step_cpu_seconds = nullptr);
+
+/** @brief Runs COLMAP's mapper again on the features and matches a runColmapSfM() call left in
+@p work_dir (its database), e.g. with another options.random_seed (the mapper's choice of initial
+pair and its RANSAC draws), into `work_dir/<output_name>` and, as text,
+`work_dir/<output_name>_txt`; the models of runColmapSfM() stay untouched. Costs the mapper's
+time only (no feature extraction or matching).
+@return the models, largest first. Throws cv::Exception when the database is missing or the
+mapper fails. */
+CV_EXPORTS std::vector<ColmapModel> rerunColmapMapper(
+    const std::string& image_dir, const std::string& work_dir, const std::string& output_name,
+    const ColmapOptions& options = ColmapOptions(),
+    std::vector<std::pair<std::string, double>>* step_seconds = nullptr,
+    std::vector<std::pair<std::string, double>>* step_cpu_seconds = nullptr);
 /** @} */
 
 //! @}
