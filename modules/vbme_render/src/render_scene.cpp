@@ -100,8 +100,13 @@ RenderSceneImpl::RenderSceneImpl(const Scene& scene, const Params& params)
         hi_ = Vec3f(0, 0, 0);
     }
 
-    for (const auto& g : geoms_)
+    for (const auto& g : geoms_) {
         has_objects_ = has_objects_ || g.kind == GeometryKind::OBJECT;
+        hittable_emission_ = hittable_emission_ || g.kind == GeometryKind::LIGHT;
+    }
+    for (const auto& m : materials_)
+        hittable_emission_ = hittable_emission_ || m.emissive;
+    hittable_emission_ = hittable_emission_ || !infinite_.empty();
 
     device_ = rtcNewDevice(nullptr);
     if (!device_) CV_Error(Error::StsError, "Embree: cannot create a device");

@@ -107,6 +107,10 @@ public:
     int lightOf(int g) const { return geoms_[g].light; }
     /** Whether any `objects:` geometry exists. */
     bool hasObjects() const { return has_objects_; }
+    /** Whether a ray can pick up emission by hitting something or escaping: an area light, an
+    emissive surface or an emitter at infinity. Without, only next-event estimation lights a
+    path, and the ray after its last shadow ray cannot add to it. */
+    bool hasHittableEmission() const { return hittable_emission_; }
     /** Emitters at infinity (indices into emitters()). */
     const std::vector<int>& infiniteEmitters() const { return infinite_; }
 
@@ -130,6 +134,7 @@ private:
     mutable RTCScene no_objects_ = nullptr;
     mutable std::once_flag no_objects_once_;
     bool has_objects_ = false;
+    bool hittable_emission_ = false;
 };
 
 MaterialRec makeMaterial(const Material& m);
