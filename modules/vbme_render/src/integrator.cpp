@@ -123,6 +123,7 @@ inline Vec3f mul(const Vec3f& a, const Vec3f& b) {
 /** Discrete distribution over the scene's lights for next-event estimation. */
 struct LightSelector {
     std::vector<float> pmf, cdf;  // cdf has n + 1 entries
+    std::vector<uint8_t> delta;   // per light: a Dirac delta (its sample() ignores u)
     int select(float u) const {
         const int n = (int)pmf.size();
         int i = int(std::upper_bound(cdf.begin() + 1, cdf.end() - 1, u) - (cdf.begin() + 1));
@@ -136,6 +137,9 @@ LightSelector makeSelector(const RenderSceneImpl& scene, int mode) {
     const int n = (int)em.size();
     if (n == 0) return s;
     s.pmf.assign(n, 1.f / n);
+    s.delta.resize(n);
+    for (int i = 0; i < n; ++i)
+        s.delta[i] = em[i]->isDelta() ? 1 : 0;
     if (mode == Renderer::LIGHTS_POWER) {
         Vec3f lo, hi;
         scene.bounds(lo, hi);
@@ -309,12 +313,18 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
         static_assert(
             PathDims::kBsdfLobe == PathDims::kLightSelect + 1 && PathDims::kLightSelect % 2 == 0,
             "light choice and lobe form one pair");
-        const Vec2f u_sel_lobe =
-            sampler.get2D(PathDims::dim(depth, PathDims::kLightSelect));
-        if (nee && n_lights > 0 && !m.is_delta) {
+        // Numbers nothing would read are not drawn (the choice among one light, the lobe of a
+        // one-lobe BSDF, the point on a delta light): the others stay the same.
+        const bool nee_here = nee && n_lights > 0 && !m.is_delta;
+        const Vec2f u_sel_lobe = (nee_here && n_lights > 1) || !m.single_lobe
+                                     ? sampler.get2D(PathDims::dim(depth, PathDims::kLightSelect))
+                                     : Vec2f(0.f, 0.f);
+        if (nee_here) {
             const float ul = u_sel_lobe[0];
-            const int li = lights.select(ul);
-            const Vec2f u = sampler.get2D(PathDims::dim(depth, PathDims::kLightPos));
+            const int li = n_lights > 1 ? lights.select(ul) : 0;
+            const Vec2f u = lights.delta[li]
+                                ? Vec2f(0.f, 0.f)
+                                : sampler.get2D(PathDims::dim(depth, PathDims::kLightPos));
             EmitterSample es;
             if (emitters[li]->sample(hit.p, u, es) && es.pdf > 0.f && !isBlack(es.L)) {
                 const Vec3f wi = frame.toLocal(es.wi);

@@ -66,6 +66,7 @@ MaterialRec makeMaterial(const Material& m) {
 
 int RenderSceneImpl::addMaterial(MaterialRec m) {
     m.is_delta = m.bsdf->isDelta();
+    m.single_lobe = m.bsdf->singleLobe();
     m.transmission = m.bsdf->hasTransmission();
     m.absorption = m.bsdf->absorption();
     materials_.push_back(std::move(m));

@@ -27,6 +27,7 @@ struct MaterialRec {
     Vec3f emission;             // constant emitted radiance (both sides)
     bool emissive = false;
     bool is_delta = false;
+    bool single_lobe = false;  // the BSDF's sample() ignores u_lobe
     bool transmission = false;
     Vec3f absorption;
 
