@@ -236,8 +236,8 @@ private:
 };
 
 Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lights,
-                          PixelSampler& sampler, PathState s, bool with_objects,
-                          bool track_objects, PathInfo& info, PathState* fork) const {
+                          PixelSampler& sampler, PathState s, bool with_objects, bool track_objects,
+                          PathInfo& info, PathState* fork) const {
     const bool nee = p_.integrator == PATH;
     const auto& emitters = scene.emitters();
     const int n_lights = (int)emitters.size();

@@ -27,6 +27,7 @@ void RenderScene::Params::read(const FileNode& fn) {
     if (const FileNode n = in.take("room_albedo"); !n.empty())
         room_albedo = Vec3f(readVec3(n, "room_albedo"));
     in("room_emissive", room_emissive);
+    in("robust", robust);
     in.finish();
     check();
 }
@@ -39,7 +40,7 @@ void RenderScene::Params::check() const {
 
 void RenderScene::Params::write(FileStorage& fs) const {
     writeVec3(fs, "room_albedo", Vec3d(room_albedo));
-    fs << "room_emissive" << (int)room_emissive;
+    fs << "room_emissive" << (int)room_emissive << "robust" << (int)robust;
 }
 
 Ptr<RenderScene> RenderScene::create(const Scene& scene, const Params& params) {
@@ -364,7 +365,8 @@ void RenderSceneImpl::addLight(const Light& light, int index) {
 RTCScene RenderSceneImpl::buildScene(bool with_objects) const {
     RTCScene s = rtcNewScene(device_);
     rtcSetSceneBuildQuality(s, RTC_BUILD_QUALITY_HIGH);
-    rtcSetSceneFlags(s, RTC_SCENE_FLAG_ROBUST);  // watertight: no leaks through the room's edges
+    // robust (default): no leaks through the edges shared by the room's faces
+    rtcSetSceneFlags(s, params_.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
     for (size_t i = 0; i < geoms_.size(); ++i) {
         const GeometryRec& g = geoms_[i];
         if (!with_objects && g.kind == GeometryKind::OBJECT) continue;
