@@ -389,8 +389,7 @@ RTCScene RenderSceneImpl::buildScene(bool with_objects) const {
     return s;
 }
 
-RTCScene RenderSceneImpl::sceneFor(bool with_objects) const {
-    if (with_objects) return full_;
+RTCScene RenderSceneImpl::noObjectsScene() const {
     std::call_once(no_objects_once_, [this] { no_objects_ = buildScene(false); });
     return no_objects_;
 }

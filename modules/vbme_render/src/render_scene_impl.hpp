@@ -120,7 +120,8 @@ private:
     void addMesh(const SceneObject& o, GeometryKind kind, int index, const std::string& field);
     void addLight(const Light& l, int index);
     int addMaterial(MaterialRec m);
-    RTCScene sceneFor(bool with_objects) const;
+    RTCScene sceneFor(bool with_objects) const { return with_objects ? full_ : noObjectsScene(); }
+    RTCScene noObjectsScene() const;
     RTCScene buildScene(bool with_objects) const;
 
     Scene scene_;
