@@ -294,6 +294,7 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
     a.exposure_smooth = 5;
     a.first = 3;
     a.end = 9;
+    a.denoise = 2;
     FileStorage w(".yml", FileStorage::WRITE | FileStorage::MEMORY);
     a.write(w);
     const std::string text = w.releaseAndGetString();
@@ -317,6 +318,8 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
     EXPECT_NE(text.find("exposure: off"), std::string::npos) << text;
     EXPECT_EQ(b.first, 3);
     EXPECT_EQ(b.end, 9);
+    EXPECT_EQ(b.denoise, 2);
+    EXPECT_EQ(InsertionParams().denoise, 0);  // off by default
     EXPECT_NO_THROW(b.check());
     auto error = [](const std::function<void()>& f) {
         try {
@@ -346,6 +349,10 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
     c.adaptive_roulette = -0.1;
     const std::string e4 = error([&] { c.check(); });
     EXPECT_NE(e4.find("adaptive_roulette"), std::string::npos) << e4;
+    c = a;
+    c.denoise = -1;
+    const std::string e9 = error([&] { c.check(); });
+    EXPECT_NE(e9.find("denoise"), std::string::npos) << e9;
     c = a;
     c.exposure_smooth = -1;
     const std::string e7 = error([&] { c.check(); });
