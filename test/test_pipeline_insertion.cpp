@@ -266,13 +266,30 @@ TEST_F(PipelineInsertion, StageApiReproducesTheDriversFrames) {
     EXPECT_EQ(stages, std::vector<std::string>({"video"}));  // nothing prepared again
     EXPECT_EQ(prep.white_scale, r.figure("white_scale"));
     VideoReader reader(in.video);
-    Mat f, out;
+    Mat f, out, f0, out0;
     for (int i = 0; i < N && reader.read(f); ++i) {
         renderInsertionFrame(prep, i, f, out);
         const Mat want = imread(dir / format("work/frames/frame_%05d.png", i), IMREAD_UNCHANGED);
         EXPECT_TRUE(identical(out, want)) << "frame " << i;
+        if (i == 0) f0 = f.clone(), out0 = out.clone();
     }
     EXPECT_THROW(renderInsertionFrame(prep, N, f, out), cv::Exception);
+    // --denoise 1: frame 0 changes, and only where the filtered difference layer is not 0 or
+    // the object covers the pixel (elsewhere the layer was 0 before filtering too).
+    prep.denoise = 1;
+    DifferentialImages layers;
+    Mat den;
+    renderInsertionFrame(prep, 0, f0, den, &layers);
+    int changed = 0, outside = 0;
+    for (int y = 0; y < den.rows; ++y)
+        for (int x = 0; x < den.cols; ++x) {
+            if (den.at<Vec3b>(y, x) == out0.at<Vec3b>(y, x)) continue;
+            ++changed;
+            if (layers.mask.at<float>(y, x) == 0 && layers.diff.at<Vec3f>(y, x) == Vec3f(0, 0, 0))
+                ++outside;
+        }
+    EXPECT_GT(changed, 0);
+    EXPECT_EQ(outside, 0);
 }
 
 // InsertionParams: write then read gives the same fields; unknown keys and bad values are
