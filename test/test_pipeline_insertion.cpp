@@ -274,12 +274,16 @@ TEST_F(PipelineInsertion, StageApiReproducesTheDriversFrames) {
         if (i == 0) f0 = f.clone(), out0 = out.clone();
     }
     EXPECT_THROW(renderInsertionFrame(prep, N, f, out), cv::Exception);
-    // --denoise 1: frame 0 changes, and only where the filtered difference layer is not 0 or
-    // the object covers the pixel (elsewhere the layer was 0 before filtering too).
-    prep.denoise = 1;
+    // --denoise 0 against the default 1: frame 0 changes, and only where the filtered
+    // difference layer is not 0 or the object covers the pixel (elsewhere the layer was 0
+    // before filtering too).
+    ASSERT_EQ(prep.denoise, 1);
     DifferentialImages layers;
     Mat den;
     renderInsertionFrame(prep, 0, f0, den, &layers);
+    prep.denoise = 0;
+    out0 = Mat();
+    renderInsertionFrame(prep, 0, f0, out0);
     int changed = 0, outside = 0;
     for (int y = 0; y < den.rows; ++y)
         for (int x = 0; x < den.cols; ++x) {
@@ -336,7 +340,7 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
     EXPECT_EQ(b.first, 3);
     EXPECT_EQ(b.end, 9);
     EXPECT_EQ(b.denoise, 2);
-    EXPECT_EQ(InsertionParams().denoise, 0);  // off by default
+    EXPECT_EQ(InsertionParams().denoise, 1);  // the default
     EXPECT_NO_THROW(b.check());
     auto error = [](const std::function<void()>& f) {
         try {

@@ -73,9 +73,10 @@ struct CV_EXPORTS InsertionParams {
     (Renderer::Params::texture_cone; 0: off). */
     double texture_cone = 0.1;
     /** @brief Radius in pixels of the joint bilateral filter applied to each frame's difference
-    layer outside the objects (denoiseDifference(); 0: off, the default — see
-    doc/vbme_pipeline_insert.md, "Denoising", for its error and flicker as measured). */
-    int denoise = 0;
+    layer outside the objects (denoiseDifference(); 0: off). The default, 1, lowered the
+    composite's error and did not add flicker where measured (doc/vbme_pipeline_insert.md,
+    "Denoising the difference layer"). */
+    int denoise = 1;
     int first = 0;              //!< first frame to render (frames [first, end))
     int end = -1;               //!< one past the last frame to render (−1: to the last frame)
     bool prepare_only = false;  //!< stop after preparing the work folder (tracking, textures,
