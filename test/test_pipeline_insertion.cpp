@@ -266,13 +266,34 @@ TEST_F(PipelineInsertion, StageApiReproducesTheDriversFrames) {
     EXPECT_EQ(stages, std::vector<std::string>({"video"}));  // nothing prepared again
     EXPECT_EQ(prep.white_scale, r.figure("white_scale"));
     VideoReader reader(in.video);
-    Mat f, out;
+    Mat f, out, f0, out0;
     for (int i = 0; i < N && reader.read(f); ++i) {
         renderInsertionFrame(prep, i, f, out);
         const Mat want = imread(dir / format("work/frames/frame_%05d.png", i), IMREAD_UNCHANGED);
         EXPECT_TRUE(identical(out, want)) << "frame " << i;
+        if (i == 0) f0 = f.clone(), out0 = out.clone();
     }
     EXPECT_THROW(renderInsertionFrame(prep, N, f, out), cv::Exception);
+    // --denoise 0 against the default 1: frame 0 changes, and only where the filtered
+    // difference layer is not 0 or the object covers the pixel (elsewhere the layer was 0
+    // before filtering too).
+    ASSERT_EQ(prep.denoise, 1);
+    DifferentialImages layers;
+    Mat den;
+    renderInsertionFrame(prep, 0, f0, den, &layers);
+    prep.denoise = 0;
+    out0 = Mat();
+    renderInsertionFrame(prep, 0, f0, out0);
+    int changed = 0, outside = 0;
+    for (int y = 0; y < den.rows; ++y)
+        for (int x = 0; x < den.cols; ++x) {
+            if (den.at<Vec3b>(y, x) == out0.at<Vec3b>(y, x)) continue;
+            ++changed;
+            if (layers.mask.at<float>(y, x) == 0 && layers.diff.at<Vec3f>(y, x) == Vec3f(0, 0, 0))
+                ++outside;
+        }
+    EXPECT_GT(changed, 0);
+    EXPECT_EQ(outside, 0);
 }
 
 // InsertionParams: write then read gives the same fields; unknown keys and bad values are
@@ -294,6 +315,7 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
     a.exposure_smooth = 5;
     a.first = 3;
     a.end = 9;
+    a.denoise = 2;
     FileStorage w(".yml", FileStorage::WRITE | FileStorage::MEMORY);
     a.write(w);
     const std::string text = w.releaseAndGetString();
@@ -317,6 +339,8 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
     EXPECT_NE(text.find("exposure: off"), std::string::npos) << text;
     EXPECT_EQ(b.first, 3);
     EXPECT_EQ(b.end, 9);
+    EXPECT_EQ(b.denoise, 2);
+    EXPECT_EQ(InsertionParams().denoise, 1);  // the default
     EXPECT_NO_THROW(b.check());
     auto error = [](const std::function<void()>& f) {
         try {
@@ -346,6 +370,10 @@ TEST(PipelineInsertionParams, ReadWriteCheck) {
     c.adaptive_roulette = -0.1;
     const std::string e4 = error([&] { c.check(); });
     EXPECT_NE(e4.find("adaptive_roulette"), std::string::npos) << e4;
+    c = a;
+    c.denoise = -1;
+    const std::string e9 = error([&] { c.check(); });
+    EXPECT_NE(e9.find("denoise"), std::string::npos) << e9;
     c = a;
     c.exposure_smooth = -1;
     const std::string e7 = error([&] { c.check(); });

@@ -7,6 +7,8 @@
 
 #include <opencv2/vbme/render/sampler.hpp>
 
+#include "../modules/vbme_render/src/sobol_impl.hpp"
+
 using namespace cv;
 using namespace cv::vbme;
 
@@ -110,4 +112,36 @@ TEST(RenderSampler, PathDimensionsAreFixedByVertex) {
         EXPECT_EQ(PathDims::dim(d, PathDims::kBsdfDir) % 2, 0u);
         EXPECT_EQ(PathDims::dim(d, PathDims::kLightPos) % 2, 0u);
     }
+}
+
+// The path tracer's per-pixel sampler (seeds hashed once per pixel, folded reversals) gives
+// the numbers of the definition: index shuffled by a nested uniform scramble, then x =
+// scramble(sobol0(i)), y = scramble(sobol1(i)), written out here from the primitives.
+TEST(RenderSampler, PixelSamplerMatchesTheDefinition) {
+    using namespace cv::vbme::sobol_detail;
+    auto unit = [](uint32_t v) { return float(v >> 8) * 0x1p-24f; };
+    int checked = 0;
+    for (uint64 seed : {0ull, 99ull}) {
+        const SobolSampler s(seed);
+        for (Point px : {Point(0, 0), Point(5, 3), Point(639, 479)}) {
+            const uint64 key = s.pixelKey(px);
+            PixelSampler ps(key);
+            for (uint32_t index : {0u, 1u, 2u, 7u, 31u, 1000u, 123456u}) {
+                ps.setIndex(index);
+                // beyond PixelSampler::kPairs too (the uncached path)
+                for (uint32_t dim = 0; dim < 2 * PixelSampler::kPairs + 6; dim += 2) {
+                    const PairSeeds q = pairSeeds(key, dim >> 1);
+                    const uint32_t i = nestedUniformScramble(index, q.shuffle);
+                    const Vec2f want(unit(nestedUniformScramble(SobolSampler::sobol(i, 0), q.x)),
+                                     unit(nestedUniformScramble(SobolSampler::sobol(i, 1), q.y)));
+                    ASSERT_EQ(ps.get2D(dim), want) << dim;
+                    ASSERT_EQ(s.get2D(px, index, dim), want) << dim;
+                    ASSERT_EQ(ps.get1D(dim), want[0]);
+                    ASSERT_EQ(ps.get1D(dim + 1), want[1]);
+                    ++checked;
+                }
+            }
+        }
+    }
+    EXPECT_GT(checked, 2000);
 }

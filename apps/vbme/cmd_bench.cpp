@@ -279,6 +279,7 @@ struct PeerScene {
     std::string dir, obj;
     cv::vbme::Scene scene;
     cv::Ptr<cv::vbme::RenderScene> rs;
+    cv::Ptr<cv::vbme::RenderScene> rs_fast;  // Embree's robust mode off, as the peer runs
     cv::Vec3d eye{1.1, -3.4, 1.6}, target{-0.1, 0.3, 0.5}, light{0.4, -0.6, 1.9};
     double intensity = 8.0, fov_y = 45.0;
 
@@ -348,6 +349,9 @@ struct PeerScene {
         so.mesh = obj;
         scene.objects = {so};
         rs = RenderScene::create(scene);
+        RenderScene::Params fast;
+        fast.robust = false;
+        rs_fast = RenderScene::create(scene, fast);
     }
     ~PeerScene() {
         std::error_code ec;
@@ -438,14 +442,17 @@ void benchRenderPeer(const BenchOptions& o) {
         "render-peer %dx%d, %d spp, path length %d, %d threads, %d rounds "
         "(point-lit room with a sphere and a box):\n",
         sz.width, sz.height, o.spp, o.max_depth, threads, o.repeat);
-    std::vector<double> ratio_wall, ratio_cpu;
+    std::vector<double> ratio_wall, ratio_cpu, ratio_cpu_fast;
     double best_v = 1e30, best_p = 1e30;
-    RenderImages img;
+    RenderImages img, img_fast;
     Mat peer;
     for (int round = 0; round < o.repeat; ++round) {
         const double c0 = cpuSeconds(RUSAGE_SELF);
         const RenderStats st = r->render(*ps.rs, ps.camera(sz), img);
         const double v_cpu = cpuSeconds(RUSAGE_SELF) - c0;
+        const double c1f = cpuSeconds(RUSAGE_SELF);
+        r->render(*ps.rs_fast, ps.camera(sz), img_fast);
+        const double v_cpu_fast = cpuSeconds(RUSAGE_SELF) - c1f;
         double w1, c1, w2, c2;
         const std::string out = ps.dir + "/peer.ppm";
         if (!ps.runPeer(sz, o.spp, o.max_depth, threads, ps.dir + "/peer_n.ppm", &w1, &c1) ||
@@ -457,12 +464,15 @@ void benchRenderPeer(const BenchOptions& o) {
         const double vw = paths / st.seconds, vc = paths / std::max(v_cpu, 1e-6);
         ratio_wall.push_back(vw / pw);
         ratio_cpu.push_back(vc / pc);
+        ratio_cpu_fast.push_back(paths / std::max(v_cpu_fast, 1e-6) / pc);
         best_v = std::min(best_v, st.seconds);
         best_p = std::min(best_p, w2 - w1);
         std::printf(
             "  round %d: vbme %.3f s (%.0f paths/s wall, %.0f paths/s CPU), pathtracer "
-            "%.3f s (%.0f paths/s wall, %.0f paths/s CPU): %.2fx wall, %.2fx CPU\n",
-            round + 1, st.seconds, vw, vc, w2 - w1, pw, pc, vw / pw, vc / pc);
+            "%.3f s (%.0f paths/s wall, %.0f paths/s CPU): %.2fx wall, %.2fx CPU; robust mode "
+            "off: %.2fx CPU\n",
+            round + 1, st.seconds, vw, vc, w2 - w1, pw, pc, vw / pw, vc / pc,
+            ratio_cpu_fast.back());
     }
     auto median = [](std::vector<double> v) {
         std::sort(v.begin(), v.end());
@@ -495,6 +505,12 @@ void benchRenderPeer(const BenchOptions& o) {
         "  vbme/pathtracer paths/s: %.2fx (wall, median of %d), %.2fx (CPU), %.2fx "
         "(fastest vs fastest)\n",
         median(ratio_wall), o.repeat, median(ratio_cpu), best_p / best_v);
+    Mat diff_fast;
+    absdiff(img.color, img_fast.color, diff_fast);
+    std::printf(
+        "  with Embree's robust mode off (RenderScene::Params::robust = false, as the peer "
+        "runs): %.2fx (CPU, median); mean |difference| from robust %.2g (linear)\n",
+        median(ratio_cpu_fast), mean(diff_fast.reshape(1))[0]);
     const std::string png =
         (std::filesystem::temp_directory_path() / "vbme_bench_peer.png").string();
     Mat both;
@@ -680,39 +696,137 @@ void benchTrackCamera(const BenchOptions& o) {
 // The insertion pipeline on a rendered hand-held room sequence with its true cameras (so COLMAP
 // is not timed): every stage of runInsertion, and seconds per frame against one plain render
 // of the same frame with the object (the peer measured in the same run).
-// Experiment (issue 16, "denoising the difference layer"): a joint bilateral filter of the
-// difference layer outside the objects' coverage, guided by the footage (display values) and
-// restricted to neighbours outside the coverage; pixels whose window holds no difference keep
-// exactly 0. Window (2r+1)², spatial σ = r/2 px, range σ = 0.1 of the display range.
-void denoiseDiffLayer(cv::vbme::DifferentialImages& im, const cv::Mat& bg8, int r) {
+// With --denoise R, the last setting again with its difference layer denoised
+// (denoiseDifference, as vbme insert --denoise R).
+// The difference layer's denoising (vbme insert --denoise R) on a static camera: the footage's
+// frames are renders with a seed each (their noise changes from frame to frame, as a sensor's
+// does), the insertion's differential render is the same in every frame (fixed seed, one
+// camera), and a high-spp render (another seed) is the reference. Per frame, the change the
+// insertion makes in display values, E = composite − footage, is compared with the reference's
+// E on the same footage: RMSE (error), and the mean |E(t+1) − E(t)| (flicker) over the pixels
+// outside the object's coverage where the difference layer is not 0.
+void benchDenoise(const BenchOptions& o) {
     using namespace cv;
-    Mat guide;
-    bg8.convertTo(guide, CV_32FC3, 1 / 255.0);
-    const Mat src = im.diff.clone();
-    const float ss = 2.f / float(r * r), sr = 1 / (2 * 0.1f * 0.1f);
-    for (int y = 0; y < src.rows; ++y)
-        for (int x = 0; x < src.cols; ++x) {
-            if (im.mask.at<float>(y, x) > 0) continue;
-            const Vec3f g0 = guide.at<Vec3f>(y, x);
-            Vec3f acc(0, 0, 0);
-            float wsum = 0;
-            bool any = false;
-            for (int dy = -r; dy <= r; ++dy) {
-                const int yy = y + dy;
-                if (yy < 0 || yy >= src.rows) continue;
-                for (int dx = -r; dx <= r; ++dx) {
-                    const int xx = x + dx;
-                    if (xx < 0 || xx >= src.cols || im.mask.at<float>(yy, xx) > 0) continue;
-                    const Vec3f d = src.at<Vec3f>(yy, xx);
-                    if (d != Vec3f(0, 0, 0)) any = true;
-                    const Vec3f dg = guide.at<Vec3f>(yy, xx) - g0;
-                    const float w = std::exp(-float(dx * dx + dy * dy) * ss - dg.dot(dg) * sr);
-                    acc += w * d;
-                    wsum += w;
-                }
+    using namespace cv::vbme;
+    namespace fs = std::filesystem;
+    const int R = o.denoise > 0 ? o.denoise : 1;
+    const int frames = std::max(2, std::min(o.frames, 24));
+    const fs::path dir =
+        fs::temp_directory_path() / format("vbme-bench-denoise-%dx%d", o.width, o.height);
+    SyntheticInsertionSequence::Params sp;
+    sp.size = Size(o.width, o.height);
+    sp.frames = 1;
+    sp.spp = 8;  // the footage
+    sp.travel = 0;
+    sp.shake_m = 0;
+    sp.shake_deg = 0;
+    const SyntheticInsertionSequence seq(dir.string(), sp);
+    const Scene& scene = seq.trueScene();
+    const Camera cam = seq.cameras()[0];
+    std::vector<Mat> footage(frames);
+    for (int t = 0; t < frames; ++t) {
+        Mat truth, region;
+        seq.renderFrame(0, footage[t], truth, region, sp.seed + 1000 + t);
+    }
+    const Ptr<RenderScene> rs = RenderScene::create(scene);
+    CompositeParams cp;
+    cp.response = cam.response;
+    cp.shadows = CompositeParams::SHADOWS_RATIO;
+    auto display = [&](const Mat& bg, const DifferentialImages& im) {
+        Mat lin, enc;
+        compositeDifferential(bg, im, lin, cp);
+        encode(lin, enc, cp.response, CV_32F);
+        min(max(enc, 0.0), 1.0, enc);
+        return Mat(enc * 255.0);
+    };
+    // vbme insert's sampling defaults (adaptive 2 .. 4 × spp, texture cone 0.1)
+    DifferentialRenderer::Params dp;
+    dp.render.spp = 4 * o.spp;
+    dp.render.max_depth = scene.render.max_depth;
+    dp.render.seed = scene.render.seed;
+    dp.render.adaptive_min_spp = o.min_spp;
+    dp.render.adaptive_error = (float)o.error;
+    dp.render.texture_cone = (float)o.texture_cone;
+    DifferentialImages im;
+    const RenderStats st = DifferentialRenderer::create(dp)->render(*rs, cam, im);
+    DifferentialImages ref;
+    {
+        DifferentialRenderer::Params rp = dp;
+        rp.render.spp = o.ref_spp > 0 ? o.ref_spp : 1024;
+        rp.render.adaptive_min_spp = 0;
+        rp.render.seed = scene.render.seed + 0x5eed;
+        std::printf("denoise: %dx%d static camera, %d footage frames; reference %d spp ...\n",
+                    o.width, o.height, frames, rp.render.spp);
+        std::fflush(stdout);
+        DifferentialRenderer::create(rp)->render(*rs, cam, ref);
+    }
+    // where it matters: outside the coverage, where the difference layer is not 0
+    Mat region(im.diff.size(), CV_8U, Scalar(0));
+    for (int y = 0; y < region.rows; ++y)
+        for (int x = 0; x < region.cols; ++x)
+            region.at<uchar>(y, x) =
+                im.mask.at<float>(y, x) == 0 && im.diff.at<Vec3f>(y, x) != Vec3f(0, 0, 0);
+    const int n_region = countNonZero(region);
+    struct Result {
+        std::string name;
+        double rmse = 0, flicker = 0, ms = 0;
+    };
+    std::vector<Result> res;
+    for (int r : {0, R}) {
+        Result out;
+        out.name = r ? format("denoised (r %d)", r) : std::string("not denoised");
+        Mat prev_e, prev_ref_e;
+        double flick = 0, flick_ref = 0, se = 0;
+        for (int t = 0; t < frames; ++t) {
+            DifferentialImages layers = im;
+            layers.diff = im.diff.clone();
+            const double c0 = cpuSeconds(RUSAGE_SELF);
+            if (r) denoiseDifference(layers, footage[t], r);
+            out.ms += 1000 * (cpuSeconds(RUSAGE_SELF) - c0) / frames;
+            Mat bg;
+            footage[t].convertTo(bg, CV_32FC3);
+            const Mat e = display(footage[t], layers) - bg;
+            const Mat ref_e = display(footage[t], ref) - bg;
+            Mat d = e - ref_e;
+            se += mean(Mat(d.mul(d)).reshape(1))[0] / frames;
+            if (t > 0) {
+                flick += mean(abs(e - prev_e), region)[0] / (frames - 1);
+                flick_ref += mean(abs(ref_e - prev_ref_e), region)[0] / (frames - 1);
             }
-            if (any && wsum > 0) im.diff.at<Vec3f>(y, x) = acc * (1 / wsum);
+            prev_e = e;
+            prev_ref_e = ref_e;
         }
+        out.rmse = std::sqrt(se);
+        out.flicker = flick;
+        res.push_back(out);
+        if (!r) {
+            Result rr;
+            rr.name = "reference";
+            rr.flicker = flick_ref;
+            res.push_back(rr);
+        }
+    }
+    double footage_flicker = 0;
+    for (int t = 1; t < frames; ++t) {
+        Mat a, b;
+        footage[t].convertTo(a, CV_32FC3);
+        footage[t - 1].convertTo(b, CV_32FC3);
+        footage_flicker += mean(abs(a - b), region)[0] / (frames - 1);
+    }
+    std::printf(
+        "  insertion render: %.1f spp mean; region (outside the coverage, difference != 0): "
+        "%d pixels; footage's own frame-to-frame change there %.3f\n",
+        double(st.paths) / im.diff.total(), n_region, footage_flicker);
+    for (const Result& r : res) {
+        if (r.name == "reference")
+            std::printf("  %-20s flicker %.3f (8-bit display, mean |E(t+1) - E(t)|)\n",
+                        r.name.c_str(), r.flicker);
+        else
+            std::printf(
+                "  %-20s RMSE %.3f against the reference, flicker %.3f (8-bit display), "
+                "%.1f ms CPU per frame\n",
+                r.name.c_str(), r.rmse, r.flicker, r.ms);
+    }
 }
 
 void benchInsert(const BenchOptions& o) {
@@ -819,7 +933,7 @@ void benchInsert(const BenchOptions& o) {
         std::string name;
         Renderer::Params p;
         double best = 1e30, cpu = 1e30, rmse = -1, spp = 0, untouched = 0;
-        bool denoise = false;  // experiment: the difference layer filtered (denoiseDiffLayer)
+        bool denoise = false;  // the difference layer filtered (denoiseDifference)
     };
     std::vector<Variant> vs;
     for (int adaptive = 0; adaptive < 2; ++adaptive)
@@ -856,7 +970,7 @@ void benchInsert(const BenchOptions& o) {
             const double c0 = cpuSeconds(RUSAGE_SELF);
             const auto t0 = std::chrono::steady_clock::now();
             const RenderStats st = DifferentialRenderer::create(dp)->render(*rs, cam, im);
-            if (v.denoise) denoiseDiffLayer(im, bg, o.denoise);
+            if (v.denoise) denoiseDifference(im, bg, o.denoise);
             const Mat disp = display(im);
             const double wall =
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -904,11 +1018,14 @@ void setupBench(CLI::App& app) {
            "$VBME_DATA/meshes/stanford-bunny.obj) or insert (vbme insert's stages and "
            "seconds per frame on a rendered 3-frame room sequence, then frame 0 with uniform and "
            "adaptive sampling and the composite's RMSE against a cached high-spp "
-           "reference) or render-peer (vbme against Embree's pathtracer on one OBJ "
+           "reference) or denoise (vbme insert --denoise R on a static camera: error against a "
+           "--ref-spp reference and flicker over --frames footage frames, with and without) or "
+           "render-peer (vbme against Embree's pathtracer on one OBJ "
            "scene: paths/s ratio and image agreement) or track-camera (seconds per frame, "
            "stage times and accuracy of the keyframe + PnP method and of full COLMAP on a clip "
            "with known cameras)")
-        ->check(CLI::IsMember({"track", "differential", "insert", "render-peer", "track-camera"}))
+        ->check(CLI::IsMember(
+            {"track", "differential", "insert", "denoise", "render-peer", "track-camera"}))
         ->capture_default_str();
     app.add_option("--spp", o->spp, "Samples per pixel (differential, insert)")
         ->check(CLI::Range(1, 100000))
@@ -958,7 +1075,7 @@ void setupBench(CLI::App& app) {
     app.add_option("--height", o->height, "Frame height")
         ->check(CLI::Range(64, 8192))
         ->capture_default_str();
-    app.add_option("--frames", o->frames, "Frames to process (track)")
+    app.add_option("--frames", o->frames, "Frames to process (track; denoise: up to 24)")
         ->check(CLI::Range(1, 1000000))
         ->capture_default_str();
     app.add_option(
@@ -1005,8 +1122,12 @@ void setupBench(CLI::App& app) {
             cv::setNumThreads(-1);
             benchInsert(*o);
         }
+        if (o->what == "denoise") {
+            cv::setNumThreads(-1);
+            benchDenoise(*o);
+        }
 #else
-        if (o->what == "insert")
+        if (o->what == "insert" || o->what == "denoise")
             CV_Error(cv::Error::StsError, "vbme was built without vbme_pipeline");
 #endif
     });

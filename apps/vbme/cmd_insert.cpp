@@ -249,6 +249,11 @@ void setupInsert(CLI::App& app) {
                    "off)")
         ->check(CLI::Range(0.0, 3.2))
         ->capture_default_str();
+    app.add_option("--denoise", o->p.denoise,
+                   "Denoise each frame's difference layer outside the objects with a joint "
+                   "bilateral filter of this radius in pixels, guided by the frame (0: off)")
+        ->check(CLI::Range(0, 16))
+        ->capture_default_str();
     app.add_option("--threads", o->p.threads, "Worker threads (default: all cores)")
         ->check(CLI::NonNegativeNumber);
     addVideoOutputOptions(app, o->p.encode);

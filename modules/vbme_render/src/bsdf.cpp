@@ -53,6 +53,7 @@ public:
         return true;
     }
     Vec3f defaultDiffuse() const override { return albedo_; }
+    bool singleLobe() const override { return true; }
 
 private:
     Vec3f albedo_;

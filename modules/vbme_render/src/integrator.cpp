@@ -18,6 +18,7 @@
 #include "opencv2/vbme/render/sampler.hpp"
 #include "render_scene_impl.hpp"
 #include "sampling.hpp"
+#include "sobol_impl.hpp"
 
 namespace cv {
 namespace vbme {
@@ -122,6 +123,7 @@ inline Vec3f mul(const Vec3f& a, const Vec3f& b) {
 /** Discrete distribution over the scene's lights for next-event estimation. */
 struct LightSelector {
     std::vector<float> pmf, cdf;  // cdf has n + 1 entries
+    std::vector<uint8_t> delta;   // per light: a Dirac delta (its sample() ignores u)
     int select(float u) const {
         const int n = (int)pmf.size();
         int i = int(std::upper_bound(cdf.begin() + 1, cdf.end() - 1, u) - (cdf.begin() + 1));
@@ -135,6 +137,9 @@ LightSelector makeSelector(const RenderSceneImpl& scene, int mode) {
     const int n = (int)em.size();
     if (n == 0) return s;
     s.pmf.assign(n, 1.f / n);
+    s.delta.resize(n);
+    for (int i = 0; i < n; ++i)
+        s.delta[i] = em[i]->isDelta() ? 1 : 0;
     if (mode == Renderer::LIGHTS_POWER) {
         Vec3f lo, hi;
         scene.bounds(lo, hi);
@@ -205,9 +210,10 @@ public:
         const SobolSampler sampler(p_.seed);
         const RenderSceneImpl& rs = impl(scene);
         const LightSelector sel = makeSelector(rs, p_.light_selection);
-        return trace(rs, sel, sampler, PathState::start(o, d), p_.with_objects,
-                     p_.aovs && p_.with_objects && rs.hasObjects(), sampler.pixelKey(pixel), index,
-                     info, nullptr);
+        PixelSampler ps(sampler.pixelKey(pixel));
+        ps.setIndex(index);
+        return trace(rs, sel, ps, PathState::start(o, d), p_.with_objects,
+                     p_.aovs && p_.with_objects && rs.hasObjects(), info, nullptr);
     }
 
 private:
@@ -221,18 +227,17 @@ private:
     track_objects): receives the state at the start of the first vertex where the path
     interacts with an object (info.forked is then set) — resuming it without the objects gives
     the path of the render without them, sample for sample. */
-    Vec3f trace(const RenderSceneImpl& scene, const LightSelector& lights,
-                const SobolSampler& sampler, PathState s, bool with_objects, bool track_objects,
-                uint64 px, uint32_t index, PathInfo& info, PathState* fork) const;
+    Vec3f trace(const RenderSceneImpl& scene, const LightSelector& lights, PixelSampler& sampler,
+                PathState s, bool with_objects, bool track_objects, PathInfo& info,
+                PathState* fork) const;
     RenderStats renderImpl(const RenderScene& scene, const Camera& camera, RenderImages& out,
                            RenderImages* without, Progress* progress) const;
     Params p_;
 };
 
 Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lights,
-                          const SobolSampler& sampler, PathState s, bool with_objects,
-                          bool track_objects, uint64 px, uint32_t index, PathInfo& info,
-                          PathState* fork) const {
+                          PixelSampler& sampler, PathState s, bool with_objects, bool track_objects,
+                          PathInfo& info, PathState* fork) const {
     const bool nee = p_.integrator == PATH;
     const auto& emitters = scene.emitters();
     const int n_lights = (int)emitters.size();
@@ -308,12 +313,18 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
         static_assert(
             PathDims::kBsdfLobe == PathDims::kLightSelect + 1 && PathDims::kLightSelect % 2 == 0,
             "light choice and lobe form one pair");
-        const Vec2f u_sel_lobe =
-            sampler.get2D(px, index, PathDims::dim(depth, PathDims::kLightSelect));
-        if (nee && n_lights > 0 && !m.is_delta) {
+        // Numbers nothing would read are not drawn (the choice among one light, the lobe of a
+        // one-lobe BSDF, the point on a delta light): the others stay the same.
+        const bool nee_here = nee && n_lights > 0 && !m.is_delta;
+        const Vec2f u_sel_lobe = (nee_here && n_lights > 1) || !m.single_lobe
+                                     ? sampler.get2D(PathDims::dim(depth, PathDims::kLightSelect))
+                                     : Vec2f(0.f, 0.f);
+        if (nee_here) {
             const float ul = u_sel_lobe[0];
-            const int li = lights.select(ul);
-            const Vec2f u = sampler.get2D(px, index, PathDims::dim(depth, PathDims::kLightPos));
+            const int li = n_lights > 1 ? lights.select(ul) : 0;
+            const Vec2f u = lights.delta[li]
+                                ? Vec2f(0.f, 0.f)
+                                : sampler.get2D(PathDims::dim(depth, PathDims::kLightPos));
             EmitterSample es;
             if (emitters[li]->sample(hit.p, u, es) && es.pdf > 0.f && !isBlack(es.L)) {
                 const Vec3f wi = frame.toLocal(es.wi);
@@ -349,9 +360,14 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
             }
         }
 
+        // The last vertex: when nothing can be hit or escaped to that emits, the ray the BSDF
+        // would sample adds nothing (unless what it meets must be known: track_objects).
+        if (depth + 1 >= p_.max_depth && !track_objects && nee && !scene.hasHittableEmission())
+            break;
+
         // BSDF sampling.
         const float ulobe = u_sel_lobe[1];
-        const Vec2f ud = sampler.get2D(px, index, PathDims::dim(depth, PathDims::kBsdfDir));
+        const Vec2f ud = sampler.get2D(PathDims::dim(depth, PathDims::kBsdfDir));
         BsdfSample bs;
         if (!bsdf.sample(wo, ud, ulobe, diffuse, bs)) break;
         if (isBlack(bs.weight) || !(bs.pdf > 0.f)) break;
@@ -372,7 +388,7 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
 
         if (depth + 1 >= p_.rr_depth) {
             const float q = std::max(0.05f, 1.f - maxComp(beta));
-            const float ur = sampler.get1D(px, index, PathDims::dim(depth, PathDims::kRoulette));
+            const float ur = sampler.get1D(PathDims::dim(depth, PathDims::kRoulette));
             if (ur < q) break;
             beta *= 1.f / (1.f - q);
         }
@@ -476,6 +492,7 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
         for (int y = y0; y < y1; ++y) {
             for (int x = x0; x < x1; ++x) {
                 const uint64 px = sampler.pixelKey(Point(x, y));
+                PixelSampler ps(px);
                 double c[3] = {0, 0, 0}, a[3] = {0, 0, 0}, n[3] = {0, 0, 0}, obj = 0, msk = 0;
                 double cn[3] = {0, 0, 0};  // without the objects (differential)
                 // Adaptive sampling: the composite's per-sample value Y (L where the camera
@@ -485,21 +502,19 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                 uint32_t taken = 0;
                 auto takeSamples = [&](uint32_t upto) {
                     for (; taken < upto; ++taken) {
-                        const uint32_t s = taken;
-                        const Vec2f off =
-                            filterOffset(p_.filter, sampler.get2D(px, s, PathDims::kFilm));
+                        ps.setIndex(taken);
+                        const Vec2f off = filterOffset(p_.filter, ps.get2D(PathDims::kFilm));
                         Vec3f o, d;
                         cam.generateRay(Point2f(x + off[0], y + off[1]), o, d);
                         PathInfo info;
                         PathState fork;
-                        Vec3f L = trace(scene, lights, sampler,
-                                        PathState::start(o, d, pixel_spread), with_objects,
-                                        track_objects, px, s, info, differential ? &fork : nullptr);
+                        Vec3f L = trace(scene, lights, ps, PathState::start(o, d, pixel_spread),
+                                        with_objects, track_objects, info,
+                                        differential ? &fork : nullptr);
                         Vec3f Ln = L;
                         if (info.forked) {
                             PathInfo info_n;
-                            Ln = trace(scene, lights, sampler, fork, false, false, px, s, info_n,
-                                       nullptr);
+                            Ln = trace(scene, lights, ps, fork, false, false, info_n, nullptr);
                             tile_rays += info_n.rays;
                         }
                         if (p_.clamp > 0.f) {

@@ -27,6 +27,7 @@ void RenderScene::Params::read(const FileNode& fn) {
     if (const FileNode n = in.take("room_albedo"); !n.empty())
         room_albedo = Vec3f(readVec3(n, "room_albedo"));
     in("room_emissive", room_emissive);
+    in("robust", robust);
     in.finish();
     check();
 }
@@ -39,7 +40,7 @@ void RenderScene::Params::check() const {
 
 void RenderScene::Params::write(FileStorage& fs) const {
     writeVec3(fs, "room_albedo", Vec3d(room_albedo));
-    fs << "room_emissive" << (int)room_emissive;
+    fs << "room_emissive" << (int)room_emissive << "robust" << (int)robust;
 }
 
 Ptr<RenderScene> RenderScene::create(const Scene& scene, const Params& params) {
@@ -66,6 +67,7 @@ MaterialRec makeMaterial(const Material& m) {
 
 int RenderSceneImpl::addMaterial(MaterialRec m) {
     m.is_delta = m.bsdf->isDelta();
+    m.single_lobe = m.bsdf->singleLobe();
     m.transmission = m.bsdf->hasTransmission();
     m.absorption = m.bsdf->absorption();
     materials_.push_back(std::move(m));
@@ -100,8 +102,13 @@ RenderSceneImpl::RenderSceneImpl(const Scene& scene, const Params& params)
         hi_ = Vec3f(0, 0, 0);
     }
 
-    for (const auto& g : geoms_)
+    for (const auto& g : geoms_) {
         has_objects_ = has_objects_ || g.kind == GeometryKind::OBJECT;
+        hittable_emission_ = hittable_emission_ || g.kind == GeometryKind::LIGHT;
+    }
+    for (const auto& m : materials_)
+        hittable_emission_ = hittable_emission_ || m.emissive;
+    hittable_emission_ = hittable_emission_ || !infinite_.empty();
 
     device_ = rtcNewDevice(nullptr);
     if (!device_) CV_Error(Error::StsError, "Embree: cannot create a device");
@@ -358,7 +365,8 @@ void RenderSceneImpl::addLight(const Light& light, int index) {
 RTCScene RenderSceneImpl::buildScene(bool with_objects) const {
     RTCScene s = rtcNewScene(device_);
     rtcSetSceneBuildQuality(s, RTC_BUILD_QUALITY_HIGH);
-    rtcSetSceneFlags(s, RTC_SCENE_FLAG_ROBUST);  // watertight: no leaks through the room's edges
+    // robust (default): no leaks through the edges shared by the room's faces
+    rtcSetSceneFlags(s, params_.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
     for (size_t i = 0; i < geoms_.size(); ++i) {
         const GeometryRec& g = geoms_[i];
         if (!with_objects && g.kind == GeometryKind::OBJECT) continue;
@@ -381,8 +389,7 @@ RTCScene RenderSceneImpl::buildScene(bool with_objects) const {
     return s;
 }
 
-RTCScene RenderSceneImpl::sceneFor(bool with_objects) const {
-    if (with_objects) return full_;
+RTCScene RenderSceneImpl::noObjectsScene() const {
     std::call_once(no_objects_once_, [this] { no_objects_ = buildScene(false); });
     return no_objects_;
 }

@@ -27,6 +27,7 @@ struct MaterialRec {
     Vec3f emission;             // constant emitted radiance (both sides)
     bool emissive = false;
     bool is_delta = false;
+    bool single_lobe = false;  // the BSDF's sample() ignores u_lobe
     bool transmission = false;
     Vec3f absorption;
 
@@ -107,6 +108,10 @@ public:
     int lightOf(int g) const { return geoms_[g].light; }
     /** Whether any `objects:` geometry exists. */
     bool hasObjects() const { return has_objects_; }
+    /** Whether a ray can pick up emission by hitting something or escaping: an area light, an
+    emissive surface or an emitter at infinity. Without, only next-event estimation lights a
+    path, and the ray after its last shadow ray cannot add to it. */
+    bool hasHittableEmission() const { return hittable_emission_; }
     /** Emitters at infinity (indices into emitters()). */
     const std::vector<int>& infiniteEmitters() const { return infinite_; }
 
@@ -115,7 +120,8 @@ private:
     void addMesh(const SceneObject& o, GeometryKind kind, int index, const std::string& field);
     void addLight(const Light& l, int index);
     int addMaterial(MaterialRec m);
-    RTCScene sceneFor(bool with_objects) const;
+    RTCScene sceneFor(bool with_objects) const { return with_objects ? full_ : noObjectsScene(); }
+    RTCScene noObjectsScene() const;
     RTCScene buildScene(bool with_objects) const;
 
     Scene scene_;
@@ -130,6 +136,7 @@ private:
     mutable RTCScene no_objects_ = nullptr;
     mutable std::once_flag no_objects_once_;
     bool has_objects_ = false;
+    bool hittable_emission_ = false;
 };
 
 MaterialRec makeMaterial(const Material& m);

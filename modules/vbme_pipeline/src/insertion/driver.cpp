@@ -32,6 +32,7 @@ void checkFrameSettings(const PreparedInsertion& prep, int spp, bool force) {
     if (rp.adaptive_min_spp > 0 || rp.texture_cone > 0)
         want += format(" adaptive=%d,%g,%g texture_cone=%g", rp.adaptive_min_spp, rp.adaptive_error,
                        rp.adaptive_roulette, rp.texture_cone);
+    if (prep.denoise > 0) want += format(" denoise=%d", prep.denoise);
     if (fs::exists(settings)) {
         FileStorage f(settings, FileStorage::READ);
         const std::string have = f.isOpened() ? (std::string)f["made_with"] : std::string();
@@ -109,6 +110,7 @@ void renderFrames(const InsertionParams& p, PreparedInsertion& prep, int first, 
                               rp.adaptive_min_spp, rp.spp, rp.adaptive_error, rp.adaptive_roulette)
                      : std::string("correlated")},
                 {"vbme.textureCone", format("%g", rp.texture_cone)},
+                {"vbme.denoise", std::to_string(prep.denoise)},
                 {"vbme.shadows", toString(prep.composite.shadows)}};
             writeDifferentialExr(exrFile(work, i), im, linear, attr);
         }

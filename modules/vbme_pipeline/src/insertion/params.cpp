@@ -78,6 +78,7 @@ void InsertionParams::read(const FileNode& fn) {
     r("adaptive_error", adaptive_error);
     r("adaptive_roulette", adaptive_roulette);
     r("texture_cone", texture_cone);
+    r("denoise", denoise);
     r("first", first);
     r("end", end);
     r("prepare_only", prepare_only);
@@ -112,11 +113,12 @@ void InsertionParams::write(FileStorage& fs) const {
            << "[:" << place.x << place.y << "]";
     fs << "spp" << spp << "adaptive_min_spp" << adaptive_min_spp << "adaptive_error"
        << adaptive_error << "adaptive_roulette" << adaptive_roulette << "texture_cone"
-       << texture_cone << "first" << first << "end" << end << "prepare_only" << (int)prepare_only
-       << "keep_exr" << (int)keep_exr << "texture_mode" << toString(texture_mode) << "albedo"
-       << toString(albedo) << "lights" << toString(lights) << "per_frame_gain"
-       << (int)per_frame_gain << "white" << white << "shadows" << toString(shadows) << "grain"
-       << toString(grain) << "shutter" << shutter << "threads" << threads << "force" << (int)force;
+       << texture_cone << "denoise" << denoise << "first" << first << "end" << end << "prepare_only"
+       << (int)prepare_only << "keep_exr" << (int)keep_exr << "texture_mode"
+       << toString(texture_mode) << "albedo" << toString(albedo) << "lights" << toString(lights)
+       << "per_frame_gain" << (int)per_frame_gain << "white" << white << "shadows"
+       << toString(shadows) << "grain" << toString(grain) << "shutter" << shutter << "threads"
+       << threads << "force" << (int)force;
     fs << "exposure" << toString(exposure) << "exposure_smooth" << exposure_smooth;
 }
 
@@ -134,6 +136,8 @@ void InsertionParams::check() const {
         bad(format("adaptive_error = %g: expected in [0.001, 255]", adaptive_error));
     if (!(adaptive_roulette >= 0 && adaptive_roulette <= 1))
         bad(format("adaptive_roulette = %g: expected in [0, 1]", adaptive_roulette));
+    if (!(denoise >= 0 && denoise <= 16))
+        bad(format("denoise = %d: expected in [0, 16] pixels", denoise));
     if (!(texture_cone >= 0 && texture_cone <= 3.2))
         bad(format("texture_cone = %g: expected in [0, 3.2] radians", texture_cone));
     if (first < 0) bad(format("first = %d: expected >= 0", first));

@@ -136,6 +136,7 @@ PreparedInsertion prepareLimited(const InsertionParams& p, const PipelineProgres
     out.render = frameRenderParams(p, out.scene);
     out.composite.response = out.scene.camera.response;
     out.composite.shadows = p.shadows;
+    out.denoise = p.denoise;
     // grain and motion blur
     out.grain = grain;
     out.grain_on = p.grain == InsertionParams::GRAIN_AUTO && grain.reliable;

@@ -25,6 +25,7 @@ void renderInsertionFrame(PreparedInsertion& prepared, int i, InputArray frame,
     // ---- exposure and white balance (issue 21): the layers at the frame's exposure ----
     if (i < (int)prepared.gains.size()) insertion::applyFrameGain(im, prepared.gains[i]);
     // ---- end of exposure ----
+    if (prepared.denoise > 0) denoiseDifference(im, frame, prepared.denoise);
     Mat linear;
     compositeDifferential(frame, im, linear, cp);
     insertion::addFrameGrain(prepared, i, im, linear);  // the footage's noise on the objects

@@ -56,6 +56,9 @@ public:
     @return false if no direction was produced (the path ends). */
     virtual bool sample(const Vec3f& wo, const Vec2f& u, float u_lobe, const Vec3f& diffuse,
                         BsdfSample& s) const = 0;
+    /** @brief True when sample() ignores its `u_lobe` (a single lobe): the path tracer then
+    does not draw it. */
+    virtual bool singleLobe() const { return false; }
     /** @brief True when every lobe is a Dirac delta (next-event estimation is useless). */
     virtual bool isDelta() const { return false; }
     /** @brief True when light can pass through (dielectrics). */

@@ -194,6 +194,21 @@ CV_EXPORTS void compositeDifferential(InputArray background, const DifferentialI
                                       OutputArray linear,
                                       const CompositeParams& params = CompositeParams());
 
+/** @brief Denoises the difference layer `layers.diff` with a joint bilateral filter
+@cite Petschnigg2004 guided by the input frame, outside the objects' coverage.
+
+Each pixel with coverage `layers.mask` = 0 becomes the weighted mean of the differences of its
+(2r+1)² neighbours that are also outside the coverage, with weights
+exp(−d²/(2σs²) − ‖g − g₀‖²/(2σr²)), σs = r/2 pixels, σr = 0.1 of the display range, g the
+guide's display values (so that a shadow does not bleed across an edge of the footage). A pixel
+whose window holds no non-zero difference keeps exactly 0, so the footage outside the objects'
+reach stays bit-exact. Covered pixels are left alone. Deterministic (no randomness; any thread
+count gives the same result).
+@param layers the render's layers; `diff` is filtered in place (`mask` is read).
+@param guide the input frame (CV_8UC3, CV_16UC3 or CV_32FC3 in [0, 1]), the layers' size.
+@param radius r in pixels (≥ 1). */
+CV_EXPORTS void denoiseDifference(DifferentialImages& layers, InputArray guide, int radius);
+
 /** @brief Encodes a linear composite with the response, to the depth of the input frame
 (CV_8U or CV_16U; CV_32F input gives CV_16U). Where the composite equals the linearised input,
 the result equals the input bit for bit (8-bit input). */

@@ -54,7 +54,8 @@ public:
     virtual Vec3f radianceEscaped(const Vec3f& dir) const { return Vec3f(0, 0, 0); }
     /** @brief For lights at infinity: solid-angle pdf of sample() for @p dir. */
     virtual float pdfEscaped(const Vec3f& dir) const { return 0.f; }
-    /** @brief Whether the light is a Dirac delta (cannot be hit by rays). */
+    /** @brief Whether the light is a Dirac delta (cannot be hit by rays; sample() then ignores
+    its `u`, and the path tracer does not draw it). */
     virtual bool isDelta() const { return false; }
     /** @brief Whether the light is at infinity (distant, environment). */
     virtual bool isInfinite() const { return false; }

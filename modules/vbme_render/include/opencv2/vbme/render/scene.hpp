@@ -66,6 +66,10 @@ public:
         Params();                                     //!< Defaults as below.
         Vec3f room_albedo = Vec3f(0.8f, 0.8f, 0.8f);  //!< albedo of untextured room faces
         bool room_emissive = false;  //!< room textures are radiance (emitters), not albedo
+        /** @brief Embree's robust mode (RTC_SCENE_FLAG_ROBUST: conservative traversal, so that
+        rays do not slip through the edges shared by neighbouring triangles). Off traces faster
+        (`vbme bench render-peer` reports how much) at the risk of such leaks. */
+        bool robust = true;
         /** @brief Reads the fields present in @p fn; an unknown key or a value check()
         refuses is an error. */
         void read(const FileNode& fn);
