@@ -50,7 +50,11 @@ RoomRadiance roomTextures(const InsertionParams& p, const Inputs& in, const Came
         VideoReader reader(p.video);
         Mat f;
         for (int i = 0; i <= wanted.back() && reader.read(f); ++i)
-            if (std::binary_search(wanted.begin(), wanted.end(), i)) frames[i] = f.clone();
+            if (std::binary_search(wanted.begin(), wanted.end(), i)) {
+                Mat u;
+                undistortImageK1(f, u, scene.camera);  // as the kept frames (inputs.cpp)
+                frames[i] = u.data == f.data ? f.clone() : u;
+            }
     }
 
     // exposure and white balance: the texture frames' gains against frame 0's (exposure.cpp);

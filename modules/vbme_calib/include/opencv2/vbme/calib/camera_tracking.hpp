@@ -235,7 +235,9 @@ CV_EXPORTS void writeBlenderScript(const std::string& script_path, const CameraP
 
 /** @brief The aligned track as a COLMAP text model (one PINHOLE camera, one
 image per video frame named frame_%05d.png, no points), for tools that read
-COLMAP models. */
+COLMAP models. With lens distortion (CameraPath::k1 ≠ 0) the camera describes the video's
+own distorted frames: SIMPLE_RADIAL (f, cx, cy, k) with k = k1 — COLMAP's radial coefficient
+acts on the same normalised coordinates as vbme's — or OPENCV (k1, 0, 0, 0) when fx ≠ fy. */
 CV_EXPORTS ColmapModel toColmapModel(const CameraPath& path);
 
 //! @}
