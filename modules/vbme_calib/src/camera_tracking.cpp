@@ -411,7 +411,26 @@ void drawRoomBox(InputOutputArray _image, const Camera& cam, const Room& room, c
                          y = std::max(-lim, std::min(lim, h[1] / h[2]));
             return Point(cvRound(x * (1 << shift)), cvRound(y * (1 << shift)));
         };
-        line(img, fixedPt(pp), fixedPt(qq), colour, thick, LINE_AA, shift);
+        if (cam.k1 == 0) {
+            line(img, fixedPt(pp), fixedPt(qq), colour, thick, LINE_AA, shift);
+            continue;
+        }
+        // bent as the lens (Camera::k1) shows it: 64 pieces, points past the fold of barrel
+        // distortion (|x|² ≥ 1 / (3 |k1|)) left out
+        std::vector<std::vector<Point>> runs(1);
+        for (int k = 0; k <= 64; ++k) {
+            const Vec3d X = p + (q - p) * (k / 64.0);
+            const double r2 = (X[0] * X[0] + X[1] * X[1]) / (X[2] * X[2]);
+            if (cam.k1 < 0 && r2 * 3 * -cam.k1 >= 0.99) {
+                if (!runs.back().empty()) runs.emplace_back();
+                continue;
+            }
+            const Vec3d h = cam.K * X;
+            const Point2d d = cam.distortPixel(Point2d(h[0] / h[2], h[1] / h[2]));
+            runs.back().push_back(fixedPt(Vec3d(d.x, d.y, 1)));
+        }
+        for (const auto& run : runs)
+            if (run.size() > 1) polylines(img, run, false, colour, thick, LINE_AA, shift);
     }
     if (!caption.empty()) {
         const double scale = std::max(0.4, img.cols / 1280.0);

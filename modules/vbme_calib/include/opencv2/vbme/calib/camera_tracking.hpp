@@ -220,7 +220,8 @@ trackCameraKeyframes(InputArrayOfArrays gray, const Scene& frame0, const std::st
 
 /** @brief Draws the room box's edges as @p camera sees them (clipped to the
 part in front of the camera), with a caption; the quickest check of a camera
-track. */
+track. With lens distortion (Camera::k1 ≠ 0) the edges are bent as the lens shows them
+(Camera::distortPixel), for drawing on the video's own frames. */
 CV_EXPORTS void drawRoomBox(InputOutputArray image, const Camera& camera, const Room& room,
                             const Scalar& colour = Scalar(0, 255, 255),
                             const std::string& caption = std::string());
