@@ -100,12 +100,7 @@ Inputs readInputs(const InsertionParams& p, const PipelineProgress& progress,
         int n = 0;
         while (reader.read(f)) {
             h.mat(f);
-            if (std::binary_search(want.begin(), want.end(), n)) {
-                // the room model is built in the undistorted (pinhole) frame (Camera::k1)
-                Mat u;
-                undistortImageK1(f, u, scene.camera);
-                in.video.kept[n] = u.data == f.data ? f.clone() : u;
-            }
+            if (std::binary_search(want.begin(), want.end(), n)) in.video.kept[n] = f.clone();
             ++n;
             if (progress) progress("video", n, std::max(expected, n));
         }
