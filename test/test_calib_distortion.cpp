@@ -138,4 +138,44 @@ TEST(CalibDistortion, SceneWithK1ReprojectsTheDistortedFrame) {
     EXPECT_GE(2 * better, (int)with_k1.size());
 }
 
+// The COLMAP model of a track with k1 describes the video's distorted frames: SIMPLE_RADIAL
+// (f, cx, cy, k) whose projection, written here after COLMAP's SimpleRadialCameraModel
+// (u = X/Z, v = Y/Z; u += u k (u² + v²), the same for v; x = f u + cx), lands where vbme's
+// Camera::projectDistorted() does, after COLMAP's +0.5 pixel-centre shift.
+TEST(CalibDistortion, ColmapModelOfAK1TrackIsSimpleRadial) {
+    CameraPath path;
+    path.K = Matx33d(300, 0, 159.5, 0, 300, 119.5, 0, 0, 1);
+    path.k1 = -0.17;
+    path.image_size = Size(320, 240);
+    path.frames.resize(1);
+    path.frames[0].R = Matx33d(0.8, 0, -0.6, 0, 1, 0, 0.6, 0, 0.8);
+    path.frames[0].t = Vec3d(0.1, -0.3, 0.5);
+    const ColmapModel m = toColmapModel(path);
+    const ColmapCamera& c = m.cameras.at(1);
+    ASSERT_EQ(c.model, "SIMPLE_RADIAL");
+    ASSERT_EQ(c.params.size(), 4u);
+    EXPECT_EQ(c.params[3], path.k1);
+    const Camera cam = path.camera(0);
+    double worst = 0;
+    for (double x = -1; x <= 1; x += 0.25)
+        for (double y = -0.8; y <= 0.8; y += 0.2) {
+            const Vec3d Xw(x, y, 3.0);
+            const Vec3d Xc = cam.camFromWorld(Xw);
+            double u = Xc[0] / Xc[2], v = Xc[1] / Xc[2];
+            const double radial = c.params[3] * (u * u + v * v);
+            u += u * radial;
+            v += v * radial;
+            const Point2d colmap(c.params[0] * u + c.params[1], c.params[0] * v + c.params[2]);
+            worst = std::max(worst, norm(colmap - Point2d(0.5, 0.5) - cam.projectDistorted(Xw)));
+        }
+    EXPECT_LT(worst, 1e-9);
+    path.K(1, 1) = 310;  // fx ≠ fy: OPENCV with k1 and zeros
+    const ColmapCamera& o = toColmapModel(path).cameras.at(1);
+    EXPECT_EQ(o.model, "OPENCV");
+    ASSERT_EQ(o.params.size(), 8u);
+    EXPECT_EQ(o.params[4], path.k1);
+    path.k1 = 0;  // no distortion: PINHOLE as before
+    EXPECT_EQ(toColmapModel(path).cameras.at(1).model, "PINHOLE");
+}
+
 }  // namespace
