@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <limits>
+#include <mutex>
 
 #include <opencv2/imgproc.hpp>
 
@@ -107,6 +108,33 @@ void pixelMaps(Size size, F f, Mat& mx, Mat& my) {
         }
     });
 }
+
+// The last maps of each direction, reused while K, k1 and the size stay (a video's frames, a
+// render's layers). Fresh Mats on a change, so maps handed out before stay valid.
+struct MapCache {
+    std::mutex m;
+    Matx33d K;
+    double k1 = 0;
+    Size size;
+    Mat mx, my;
+};
+
+template <class F>
+void cachedMaps(MapCache& c, const Camera& cam, Size size, F f, Mat& mx, Mat& my) {
+    std::lock_guard<std::mutex> lock(c.m);
+    if (c.mx.empty() || c.k1 != cam.k1 || c.K != cam.K || c.size != size) {
+        Mat nx, ny;
+        pixelMaps(size, f, nx, ny);
+        c.mx = nx;
+        c.my = ny;
+        c.K = cam.K;
+        c.k1 = cam.k1;
+        c.size = size;
+    }
+    mx = c.mx;
+    my = c.my;
+}
+MapCache undistort_maps, distort_maps;
 }  // namespace
 
 void undistortImageK1(InputArray distorted, OutputArray undistorted, const Camera& cam,
@@ -117,8 +145,9 @@ void undistortImageK1(InputArray distorted, OutputArray undistorted, const Camer
         return;
     }
     Mat mx, my;
-    pixelMaps(
-        src.size(), [&](const Point2d& p) { return cam.distortPixel(p); }, mx, my);
+    cachedMaps(
+        undistort_maps, cam, src.size(), [&](const Point2d& p) { return cam.distortPixel(p); }, mx,
+        my);
     Mat out;
     remap(src, out, mx, my, interpolation, border_mode);
     undistorted.assign(out);
@@ -132,8 +161,9 @@ void distortImageK1(InputArray undistorted, OutputArray distorted, const Camera&
         return;
     }
     Mat mx, my;
-    pixelMaps(
-        src.size(), [&](const Point2d& p) { return cam.undistortPixel(p); }, mx, my);
+    cachedMaps(
+        distort_maps, cam, src.size(), [&](const Point2d& p) { return cam.undistortPixel(p); }, mx,
+        my);
     Mat out;
     remap(src, out, mx, my, interpolation, BORDER_CONSTANT, Scalar::all(0));
     distorted.assign(out);
