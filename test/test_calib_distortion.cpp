@@ -119,7 +119,8 @@ TEST(CalibDistortion, SceneWithK1ReprojectsTheDistortedFrame) {
         }
         with_k1.push_back(e_k1);
         without.push_back(e_pin);
-        per_image += format(" %.2f/%.2f", e_k1, e_pin);
+        auto px = [](double e) { return e >= 1e9 ? std::string("refused") : format("%.2f", e); };
+        per_image += " " + px(e_k1) + "/" + px(e_pin);
     }
     auto median = [](std::vector<double> v) {
         std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
