@@ -171,7 +171,8 @@ TEST(CalibDistortion, ColmapModelOfAK1TrackIsSimpleRadial) {
         }
     EXPECT_LT(worst, 1e-9);
     path.K(1, 1) = 310;  // fx ≠ fy: OPENCV with k1 and zeros
-    const ColmapCamera& o = toColmapModel(path).cameras.at(1);
+    const ColmapModel mo = toColmapModel(path);
+    const ColmapCamera& o = mo.cameras.at(1);
     EXPECT_EQ(o.model, "OPENCV");
     ASSERT_EQ(o.params.size(), 8u);
     EXPECT_EQ(o.params[4], path.k1);
