@@ -258,4 +258,6 @@ TEST(AppCalibrate, AutoProposalsAndDistortionOnARender) {
     ASSERT_NE(at, std::string::npos) << r.output;
     const double est = std::stod(r.output.substr(at + 21));
     EXPECT_LT(std::abs(est / k1 - 1), 0.1) << r.output;
+    // the scene file carries it (camera.k1) for track-camera and insert
+    EXPECT_NEAR(cv::vbme::Scene::read(out).camera.k1, est, 5e-5);
 }

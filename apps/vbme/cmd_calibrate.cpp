@@ -120,8 +120,8 @@ void runCalibrate(const CalibrateOptions& o) {
         scene.camera.K(1, 2));
     if (opt.vp.estimate_distortion)
         std::printf(
-            "radial distortion k1 %.4f (x_d = x (1 + k1 |x|^2), x = K^-1 p; frames are "
-            "not undistorted by the other commands yet)\n",
+            "radial distortion k1 %.4f (x_d = x (1 + k1 |x|^2), x = K^-1 p; written to the "
+            "scene's camera: track-camera and insert undistort the frames with it)\n",
             fc.k1);
     std::printf(
         "camera at (%.3f, %.3f, %.3f) m, heading %.1f deg, elevation %.1f deg; "
@@ -168,7 +168,8 @@ void setupCalibrate(CLI::App& app) {
                  "neither --focal nor --focal-35mm is given");
     app.add_option("--distortion", o->distortion,
                    "Also estimate lens distortion with --auto: 'k1' (one radial coefficient, "
-                   "from the straightness of the lines); reported, not yet applied")
+                   "from the straightness of the lines); written to the scene's camera (k1), which "
+                   "track-camera and insert then undistort the frames with")
         ->check(CLI::IsMember({"k1"}));
     app.add_option("--method", o->method,
                    "Automatic search: 'global' (exhaustive over vanishing-point candidates, "

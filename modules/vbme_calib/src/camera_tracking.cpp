@@ -330,6 +330,8 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
             Progress progress("decode frames", std::max(0, reader.frameCount()));
             Mat f;
             while (reader.read(f)) {
+                // COLMAP's PINHOLE model and the PnP see the undistorted frames (Camera::k1)
+                undistortImageK1(f, f, frame0.camera);
                 Mat g;
                 if (f.channels() == 1)
                     g = f.clone();
@@ -346,6 +348,7 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
         const double decode = total.seconds(), decode_cpu = detail::processCpuSeconds() - cpu0;
         CameraTrackingReport r;
         CameraPath path = trackCameraKeyframes(gray, frame0, work_dir, opt, &r);
+        path.k1 = frame0.camera.k1;
         r.stage_seconds.insert(r.stage_seconds.begin(), {"decode", decode});
         r.stage_cpu_seconds.insert(r.stage_cpu_seconds.begin(), {"decode", decode_cpu});
         r.seconds += decode;
@@ -364,24 +367,32 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
     int count = -1, stride = -1;
     {
         std::ifstream m(marker.string());
+        double k1 = 0;  // files before lens distortion hold no k1
         if (!(m >> count >> stride) || stride != opt.stride) count = -1;
+        if (count > 0 && !(m >> k1)) k1 = 0;
+        if (k1 != frame0.camera.k1) count = -1;
     }
     if (count > 0) {
         for (int i = 0; i < count; ++i)
             names.push_back(format("frame_%05d.png", i));
     } else {
         fs::remove(marker, ec);
+        fs::remove(work / "colmap_complete.txt", ec);  // COLMAP ran on other frames
         VideoReader reader(video);
         checkFrameSize(reader, frame0.image_size);
         Progress progress("extract frames", std::max(0, reader.frameCount()));
         Mat f;
         for (int i = 0; reader.read(f); ++i) {
             names.push_back(format("frame_%05d.png", i));
-            if (i % opt.stride == 0) imwriteAtomic((frames / names.back()).string(), f);
+            if (i % opt.stride == 0) {
+                undistortImageK1(f, f, frame0.camera);  // COLMAP's PINHOLE sees them undistorted
+                imwriteAtomic((frames / names.back()).string(), f);
+            }
             progress.tick();
         }
         progress.finish();
-        detail::writeMarker(marker.string(), format("%zu %d", names.size(), opt.stride));
+        detail::writeMarker(marker.string(),
+                            format("%zu %d %.17g", names.size(), opt.stride, frame0.camera.k1));
     }
     if (names.empty()) CV_Error(Error::StsError, "'" + video + "' holds no frame");
     std::vector<std::pair<std::string, double>> stage_seconds = {{"extract frames",
@@ -411,6 +422,7 @@ CameraPath trackCameraVideo(const std::string& video, const Scene& frame0,
     const double cpu_align = detail::processCpuSeconds();
     CameraTrackingReport r;
     CameraPath path = alignModelWithFrame0(models, names, frame0, work_dir, opt, total, &r);
+    path.k1 = frame0.camera.k1;
     stage_seconds.emplace_back("align", t_align.seconds());
     stage_cpu.emplace_back("align", detail::processCpuSeconds() - cpu_align);
     r.stage_seconds = stage_seconds;
@@ -442,7 +454,26 @@ void drawRoomBox(InputOutputArray _image, const Camera& cam, const Room& room, c
                          y = std::max(-lim, std::min(lim, h[1] / h[2]));
             return Point(cvRound(x * (1 << shift)), cvRound(y * (1 << shift)));
         };
-        line(img, fixedPt(pp), fixedPt(qq), colour, thick, LINE_AA, shift);
+        if (cam.k1 == 0) {
+            line(img, fixedPt(pp), fixedPt(qq), colour, thick, LINE_AA, shift);
+            continue;
+        }
+        // bent as the lens (Camera::k1) shows it: 64 pieces, points past the fold of barrel
+        // distortion (|x|² ≥ 1 / (3 |k1|)) left out
+        std::vector<std::vector<Point>> runs(1);
+        for (int k = 0; k <= 64; ++k) {
+            const Vec3d X = p + (q - p) * (k / 64.0);
+            const double r2 = (X[0] * X[0] + X[1] * X[1]) / (X[2] * X[2]);
+            if (cam.k1 < 0 && r2 * 3 * -cam.k1 >= 0.99) {
+                if (!runs.back().empty()) runs.emplace_back();
+                continue;
+            }
+            const Vec3d h = cam.K * X;
+            const Point2d d = cam.distortPixel(Point2d(h[0] / h[2], h[1] / h[2]));
+            runs.back().push_back(fixedPt(Vec3d(d.x, d.y, 1)));
+        }
+        for (const auto& run : runs)
+            if (run.size() > 1) polylines(img, run, false, colour, thick, LINE_AA, shift);
     }
     if (!caption.empty()) {
         const double scale = std::max(0.4, img.cols / 1280.0);
@@ -512,6 +543,17 @@ ColmapModel toColmapModel(const CameraPath& path) {
     ColmapCamera cam;
     cam.size = path.image_size;
     cam.params = {path.K(0, 0), path.K(1, 1), path.K(0, 2) + 0.5, path.K(1, 2) + 0.5};
+    if (path.k1 != 0) {
+        // the video's own (distorted) frames: COLMAP's radial k is vbme's k1 (the same
+        // normalised coordinates x = K^-1 p); SIMPLE_RADIAL has one focal length
+        if (path.K(0, 0) == path.K(1, 1)) {
+            cam.model = "SIMPLE_RADIAL";
+            cam.params = {path.K(0, 0), path.K(0, 2) + 0.5, path.K(1, 2) + 0.5, path.k1};
+        } else {
+            cam.model = "OPENCV";  // fx, fy, cx, cy, k1, k2, p1, p2
+            cam.params.insert(cam.params.end(), {path.k1, 0.0, 0.0, 0.0});
+        }
+    }
     m.cameras[1] = cam;
     for (const auto& f : path.frames) {
         ColmapImage im;

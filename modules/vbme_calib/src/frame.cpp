@@ -344,11 +344,32 @@ Scene calibrateFrame(InputArray image_, const FrameAnnotation& ann,
     scene.image_size = size;
     Camera cam = fc.camera();
     cam.response = ann.has_response ? ann.response : Response::SRGB;
+    // With an estimated lens distortion the scene describes the undistorted (pinhole) frame:
+    // the clicked room and light points and the light pixels are taken there.
+    cam.k1 = fc.k1;
+    FrameAnnotation ann_u;
+    if (cam.k1 != 0) {
+        ann_u = ann;
+        auto undist = [&](std::vector<Point2d>& pts) {
+            for (Point2d& q : pts)
+                q = cam.undistortPixel(q);
+        };
+        for (auto& kv : ann_u.room.floor_edges)
+            undist(kv.second);
+        for (auto& kv : ann_u.room.ceiling_edges)
+            undist(kv.second);
+        for (auto& c : ann_u.room.wall_corners)
+            undist(c.points);
+        for (auto& l : ann_u.lights)
+            undist(l.polygon);
+        undistortImageK1(image, image, cam);
+    }
+    const FrameAnnotation& ann_p = cam.k1 != 0 ? ann_u : ann;
     const double h = opt.camera_height > 0 ? opt.camera_height : ann.camera_height;
-    if (!ann.room.empty()) {
+    if (!ann_p.room.empty()) {
         if (h > 0) {
             placeCamera(cam, h);
-            scene.room = fitRoom(cam, ann.room);
+            scene.room = fitRoom(cam, ann_p.room);
         } else {
             // Unknown height: fit in units of the camera height from the clicks alone, then
             // scale by a face whose distance is known (or the room height).
@@ -356,9 +377,9 @@ Scene calibrateFrame(InputArray image_, const FrameAnnotation& ann,
             placeCamera(unit, 1.0);
             double value[6];
             bool known[6];
-            detail::solveFaces(unit, ann.room, false, value, known);
-            std::map<std::string, double> given = ann.room.faces;
-            if (ann.room_height > 0) given["ceiling"] = ann.room_height;
+            detail::solveFaces(unit, ann_p.room, false, value, known);
+            std::map<std::string, double> given = ann_p.room.faces;
+            if (ann_p.room_height > 0) given["ceiling"] = ann_p.room_height;
             double scale = 0;
             for (const auto& kv : given) {
                 const int f = detail::faceIndex(kv.first, "room.faces." + kv.first);
@@ -373,24 +394,24 @@ Scene calibrateFrame(InputArray image_, const FrameAnnotation& ann,
                          "or the room height with ceiling-edge points (room_height), or the "
                          "distance of a face whose edge is clicked (room.faces)");
             placeCamera(cam, scale);
-            RoomAnnotation ra = ann.room;
-            if (ann.room_height > 0 && !ra.faces.count("ceiling"))
-                ra.faces["ceiling"] = ann.room_height;
+            RoomAnnotation ra = ann_p.room;
+            if (ann_p.room_height > 0 && !ra.faces.count("ceiling"))
+                ra.faces["ceiling"] = ann_p.room_height;
             scene.room = fitRoom(cam, ra);
         }
         scene.has_room = true;
     } else {
         placeCamera(cam, h > 0 ? h : opt.default_camera_height);
     }
-    if (!ann.lights.empty()) {
+    if (!ann_p.lights.empty()) {
         if (!scene.has_room)
             CV_Error(Error::StsBadArg,
                      "the annotation has lights but no room: light polygons are "
                      "projected onto the room box; annotate the room");
-        for (size_t i = 0; i < ann.lights.size(); ++i) {
+        for (size_t i = 0; i < ann_p.lights.size(); ++i) {
             try {
                 scene.lights.push_back(
-                    projectLight(cam, scene.room, ann.lights[i], image, cam.response));
+                    projectLight(cam, scene.room, ann_p.lights[i], image, cam.response));
             } catch (const cv::Exception& e) {
                 CV_Error(e.code, format("lights[%d]: ", (int)i) + e.err);
             }

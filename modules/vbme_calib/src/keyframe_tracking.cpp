@@ -309,7 +309,10 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
         const Matx33d& K = frame0.camera.K;
         key_list << ko.sift_features << " " << ko.overlap << " " << opt.colmap.random_seed << " "
                  << opt.colmap.vocab_tree << " "
-                 << format("%.10g %.10g %.10g %.10g", K(0, 0), K(1, 1), K(0, 2), K(1, 2)) << ":";
+                 << format("%.10g %.10g %.10g %.10g", K(0, 0), K(1, 1), K(0, 2), K(1, 2));
+        // the frames were undistorted with it (trackCameraVideo)
+        if (frame0.camera.k1 != 0) key_list << format(" k1 %.10g", frame0.camera.k1);
+        key_list << ":";
         for (int k : ks)
             key_list << " " << k;
         return key_list.str();

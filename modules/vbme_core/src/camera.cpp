@@ -1,6 +1,12 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 #include "opencv2/vbme/core/camera.hpp"
 
+#include <cmath>
+#include <limits>
+#include <mutex>
+
+#include <opencv2/imgproc.hpp>
+
 #include "opencv2/vbme/core/scene.hpp"
 
 namespace cv {
@@ -53,6 +59,116 @@ Camera Camera::scaled(Size size) const {
     return c;
 }
 
+Point2d Camera::distortPixel(const Point2d& p) const {
+    if (k1 == 0) return p;
+    const Vec3d x = K.inv() * Vec3d(p.x, p.y, 1.0);
+    const double s = 1 + k1 * (x[0] * x[0] + x[1] * x[1]);
+    const Vec3d q = K * Vec3d(x[0] * s, x[1] * s, 1.0);
+    return Point2d(q[0], q[1]);
+}
+
+Point2d Camera::undistortPixel(const Point2d& p) const {
+    if (k1 == 0) return p;
+    const Vec3d xd = K.inv() * Vec3d(p.x, p.y, 1.0);
+    const double rd = std::hypot(xd[0], xd[1]);
+    if (rd == 0) return p;
+    // r (1 + k1 r²) = rd for r, within the monotonic branch (r² < 1 / (3 |k1|) when k1 < 0)
+    const double r_max = k1 < 0 ? 1 / std::sqrt(3 * -k1) : std::numeric_limits<double>::infinity();
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    if (k1 < 0 && rd > r_max * (1 + k1 * r_max * r_max)) return Point2d(nan, nan);
+    double r = std::min(rd, 0.999 * r_max);
+    for (int it = 0; it < 50; ++it) {
+        const double g = r * (1 + k1 * r * r) - rd, dg = 1 + 3 * k1 * r * r;
+        if (!(dg > 0)) return Point2d(nan, nan);
+        const double step = g / dg;
+        r = std::min(std::max(r - step, 0.0), 0.999999 * r_max);
+        if (std::abs(step) < 1e-14 * (1 + r)) break;
+    }
+    const double s = r / rd;
+    const Vec3d q = K * Vec3d(xd[0] * s, xd[1] * s, 1.0);
+    return Point2d(q[0], q[1]);
+}
+
+namespace {
+// remap() maps: for each destination pixel, the source pixel f(p) (NaN → outside).
+template <class F>
+void pixelMaps(Size size, F f, Mat& mx, Mat& my) {
+    mx.create(size, CV_32F);
+    my.create(size, CV_32F);
+    parallel_for_(Range(0, size.height), [&](const Range& rows) {
+        for (int y = rows.start; y < rows.end; ++y) {
+            float* px = mx.ptr<float>(y);
+            float* py = my.ptr<float>(y);
+            for (int x = 0; x < size.width; ++x) {
+                const Point2d q = f(Point2d(x, y));
+                const bool ok = std::isfinite(q.x) && std::isfinite(q.y);
+                px[x] = ok ? (float)q.x : -1e6f;
+                py[x] = ok ? (float)q.y : -1e6f;
+            }
+        }
+    });
+}
+
+// The last maps of each direction, reused while K, k1 and the size stay (a video's frames, a
+// render's layers). Fresh Mats on a change, so maps handed out before stay valid.
+struct MapCache {
+    std::mutex m;
+    Matx33d K;
+    double k1 = 0;
+    Size size;
+    Mat mx, my;
+};
+
+template <class F>
+void cachedMaps(MapCache& c, const Camera& cam, Size size, F f, Mat& mx, Mat& my) {
+    std::lock_guard<std::mutex> lock(c.m);
+    if (c.mx.empty() || c.k1 != cam.k1 || c.K != cam.K || c.size != size) {
+        Mat nx, ny;
+        pixelMaps(size, f, nx, ny);
+        c.mx = nx;
+        c.my = ny;
+        c.K = cam.K;
+        c.k1 = cam.k1;
+        c.size = size;
+    }
+    mx = c.mx;
+    my = c.my;
+}
+MapCache undistort_maps, distort_maps;
+}  // namespace
+
+void undistortImageK1(InputArray distorted, OutputArray undistorted, const Camera& cam,
+                      int interpolation, int border_mode) {
+    const Mat src = distorted.getMat();
+    if (cam.k1 == 0) {
+        if (undistorted.getObj() != distorted.getObj()) src.copyTo(undistorted);
+        return;
+    }
+    Mat mx, my;
+    cachedMaps(
+        undistort_maps, cam, src.size(), [&](const Point2d& p) { return cam.distortPixel(p); }, mx,
+        my);
+    Mat out;
+    remap(src, out, mx, my, interpolation, border_mode);
+    undistorted.assign(out);
+}
+
+void distortImageK1(InputArray undistorted, OutputArray distorted, const Camera& cam,
+                    int interpolation) {
+    const Mat src = undistorted.getMat();
+    if (cam.k1 == 0) {
+        if (undistorted.getObj() != distorted.getObj()) src.copyTo(distorted);
+        return;
+    }
+    Mat mx, my;
+    cachedMaps(
+        distort_maps, cam, src.size(), [&](const Point2d& p) { return cam.undistortPixel(p); }, mx,
+        my);
+    Mat out;
+    remap(src, out, mx, my, interpolation, BORDER_CONSTANT, Scalar::all(0));
+    distorted.assign(out);
+}
+
 Matx44d Camera::camFromWorldMatrix() const {
     Matx44d M = Matx44d::eye();
     for (int r = 0; r < 3; ++r) {
@@ -68,6 +184,7 @@ void Camera::write(FileStorage& fs) const {
     fs << "R" << Mat(R);
     fs << "t" << Mat(t);
     fs << "response" << toString(response);
+    if (k1 != 0) fs << "k1" << k1;
 }
 
 void Camera::read(const FileNode& node) {
@@ -77,6 +194,17 @@ void Camera::read(const FileNode& node) {
     if (!node["R"].empty()) R = Matx33d(readMatrix(node["R"], 3, 3, "camera.R"));
     if (!node["t"].empty()) t = Vec3d(readMatrix(node["t"], 3, 1, "camera.t"));
     if (!node["response"].empty()) response = parseResponse((std::string)node["response"]);
+    k1 = 0;
+    if (!node["k1"].empty()) {
+        if (!node["k1"].isReal() && !node["k1"].isInt())
+            CV_Error(Error::StsParseError, "camera.k1: expected a number");
+        k1 = (double)node["k1"];
+        if (!(std::abs(k1) < 10))
+            CV_Error(Error::StsBadArg,
+                     format("camera.k1: %g is not a plausible radial distortion coefficient "
+                            "(expected |k1| < 10, in normalised coordinates x = K^-1 p)",
+                            k1));
+    }
     const double det = cv::determinant(Mat(R));
     if (std::abs(det - 1.0) > 1e-3)
         CV_Error(Error::StsBadArg,

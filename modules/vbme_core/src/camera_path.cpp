@@ -31,6 +31,7 @@ Camera CameraPath::camera(size_t i) const {
     CV_Assert(i < frames.size());
     Camera c;
     c.K = K;
+    c.k1 = k1;
     c.R = frames[i].R;
     c.t = frames[i].t;
     c.image_size = image_size;
@@ -42,6 +43,15 @@ CameraPath CameraPath::read(const std::string& path) {
     CameraPath p;
     try {
         p.K = Matx33d(readMatrix(fs["K"], 3, 3, "K"));
+        if (!fs["k1"].empty()) {
+            if (!fs["k1"].isReal() && !fs["k1"].isInt())
+                CV_Error(Error::StsParseError, "k1: expected a number");
+            p.k1 = (double)fs["k1"];
+            if (!(std::abs(p.k1) < 10))
+                CV_Error(Error::StsBadArg, format("k1: %g is not a plausible radial distortion "
+                                                  "coefficient (expected |k1| < 10)",
+                                                  p.k1));
+        }
         if (!fs["image_size"].empty()) {
             p.image_size = readImageSize(fs["image_size"], "image_size");
         }
@@ -81,6 +91,7 @@ void CameraPath::write(const std::string& path) const {
     {
         FileStorage fs = openForWriting(out);
         fs << "K" << Mat(K);
+        if (k1 != 0) fs << "k1" << k1;
         if (image_size.area() > 0)
             fs << "image_size"
                << "[:" << image_size.width << image_size.height << "]";

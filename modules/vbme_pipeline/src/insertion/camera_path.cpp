@@ -15,6 +15,7 @@ namespace fs = std::filesystem;
 Camera pathCamera(const CameraPath& path, int i, const Scene& scene) {
     Camera c = path.camera((size_t)i);
     c.response = scene.camera.response;
+    c.k1 = scene.camera.k1;
     c.image_size = scene.image_size;
     return c;
 }
@@ -42,6 +43,13 @@ CameraPath cameraPath(const InsertionParams& p, const Inputs& in, const std::str
                  format("the camera path '%s' has %d frames but the video '%s' has %d (one pose "
                         "per video frame is needed)",
                         path_file.c_str(), (int)path.frames.size(), p.video.c_str(), n));
+    // a path without k1 (another tracker, known poses) is taken as the pinhole camera's poses
+    if (path.k1 != 0 && std::abs(path.k1 - scene.camera.k1) > 1e-9)
+        CV_Error(Error::StsBadArg,
+                 format("the camera path '%s' was tracked on frames undistorted with k1 = %g, but "
+                        "the scene's camera has k1 = %g: track the camera again with this "
+                        "scene (or give the path's k1 in the scene)",
+                        path_file.c_str(), path.k1, scene.camera.k1));
     if (path.image_size.area() > 0 && path.image_size != scene.image_size)
         CV_Error(Error::StsBadSize,
                  format("the camera path '%s' is for %dx%d images, the scene for %dx%d",

@@ -357,6 +357,7 @@ std::vector<Vec3d> exposureGains(const InsertionParams& p, const Scene& scene,
     VideoReader reader(p.video);
     Mat f;
     for (int i = 0; i < frames && reader.read(f); ++i) {
+        undistortImageK1(f, f, scene.camera);  // compared with the pinhole room model
         g[i] = est.frameGain(est.observe(f, pathCamera(path, i, scene)), &cnt[i]);
         if (progress) progress("exposure", i + 1, frames);
     }

@@ -278,6 +278,7 @@ double estimateShutter(const Scene& scene, const CameraPath& path, int frames,
             if (i == best) plate = f.clone();
     }
     if (plate.empty()) return -1;
+    undistortImageK1(plate, plate, scene.camera);  // compared with pinhole views of the room
     Mat P;
     // at most 480 px wide (the textures' lookups stay cheap; blur widths stay measurable)
     Camera base = pathCamera(path, best, scene);

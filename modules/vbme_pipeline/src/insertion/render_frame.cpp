@@ -7,6 +7,17 @@
 namespace cv {
 namespace vbme {
 
+namespace {
+// The footage's lens (Camera::k1): the layers, rendered in the undistorted pinhole camera, are
+// warped to where that lens shows them, so they line up with the (distorted) input frame.
+void distortLayers(DifferentialImages& im, const Camera& cam) {
+    if (cam.k1 == 0) return;
+    for (Mat* m : {&im.obj, &im.noobj, &im.diff, &im.mask, &im.object})
+        if (!m->empty()) distortImageK1(*m, *m, cam);
+    if (!im.samples.empty()) distortImageK1(im.samples, im.samples, cam, INTER_NEAREST);
+}
+}  // namespace
+
 void renderInsertionFrame(PreparedInsertion& prepared, int i, InputArray frame,
                           OutputArray composite, DifferentialImages* layers,
                           Mat* composite_linear) {
@@ -25,6 +36,8 @@ void renderInsertionFrame(PreparedInsertion& prepared, int i, InputArray frame,
     // ---- exposure and white balance (issue 21): the layers at the frame's exposure ----
     if (i < (int)prepared.gains.size()) insertion::applyFrameGain(im, prepared.gains[i]);
     // ---- end of exposure ----
+    distortLayers(im, prepared.scene.camera);  // to the lens first: the denoiser is guided by
+                                               // the frame as filmed
     if (prepared.denoise > 0) denoiseDifference(im, frame, prepared.denoise);
     Mat linear;
     compositeDifferential(frame, im, linear, cp);

@@ -52,6 +52,14 @@ RoomRadiance roomTextures(const InsertionParams& p, const Inputs& in, const Came
         for (int i = 0; i <= wanted.back() && reader.read(f); ++i)
             if (std::binary_search(wanted.begin(), wanted.end(), i)) frames[i] = f.clone();
     }
+    // the room model is built in the undistorted (pinhole) frame of the scene's camera
+    // (Camera::k1); the kept frames themselves stay as filmed (the grain is measured on them)
+    if (scene.camera.k1 != 0)
+        for (auto& kv : frames) {
+            Mat u;
+            undistortImageK1(kv.second, u, scene.camera);
+            kv.second = u;
+        }
 
     // exposure and white balance: the texture frames' gains against frame 0's (exposure.cpp);
     // every frame below is divided by its gain, so that the textures, the albedo and the

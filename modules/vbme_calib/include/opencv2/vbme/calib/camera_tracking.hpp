@@ -253,7 +253,8 @@ trackCameraKeyframes(InputArrayOfArrays gray, const Scene& frame0, const std::st
 
 /** @brief Draws the room box's edges as @p camera sees them (clipped to the
 part in front of the camera), with a caption; the quickest check of a camera
-track. */
+track. With lens distortion (Camera::k1 ≠ 0) the edges are bent as the lens shows them
+(Camera::distortPixel), for drawing on the video's own frames. */
 CV_EXPORTS void drawRoomBox(InputOutputArray image, const Camera& camera, const Room& room,
                             const Scalar& colour = Scalar(0, 255, 255),
                             const std::string& caption = std::string());
@@ -268,7 +269,9 @@ CV_EXPORTS void writeBlenderScript(const std::string& script_path, const CameraP
 
 /** @brief The aligned track as a COLMAP text model (one PINHOLE camera, one
 image per video frame named frame_%05d.png, no points), for tools that read
-COLMAP models. */
+COLMAP models. With lens distortion (CameraPath::k1 ≠ 0) the camera describes the video's
+own distorted frames: SIMPLE_RADIAL (f, cx, cy, k) with k = k1 — COLMAP's radial coefficient
+acts on the same normalised coordinates as vbme's — or OPENCV (k1, 0, 0, 0) when fx ≠ fy. */
 CV_EXPORTS ColmapModel toColmapModel(const CameraPath& path);
 
 //! @}

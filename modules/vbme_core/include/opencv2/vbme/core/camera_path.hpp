@@ -17,8 +17,9 @@ namespace vbme {
 
 /** @brief The camera of every frame of a video, in the room's world frame.
 
-File form (YAML): `K: 3x3` and `frames: [ { index, R, t, source }, … ]`, one entry per video
-frame in order (`cam_from_world`). `source` says where a pose came from.
+File form (YAML): `K: 3x3`, optionally `k1` (the lens's radial distortion, Camera::k1; the
+poses are those of the undistorted frames), and `frames: [ { index, R, t, source }, … ]`, one entry
+per video frame in order (`cam_from_world`). `source` says where a pose came from.
 */
 struct CV_EXPORTS CameraPath {
     /** @brief Where a frame's pose comes from. */
@@ -35,10 +36,11 @@ struct CV_EXPORTS CameraPath {
         Source source = SFM;         //!< provenance
     };
     Matx33d K = Matx33d::eye();  //!< shared intrinsics
+    double k1 = 0;               //!< radial distortion of the frames (Camera::k1); 0: none
     Size image_size;             //!< image size (written when known)
     std::vector<Frame> frames;   //!< one per video frame, in order
 
-    /** @brief The Camera of frame @p i (K, image size and pose). */
+    /** @brief The Camera of frame @p i (K, k1, image size and pose). */
     Camera camera(size_t i) const;
     /** @brief Reads a camera-path file; throws cv::Exception naming the field at fault,
     including frames out of order. */
