@@ -733,11 +733,9 @@ void benchDenoise(const BenchOptions& o) {
     cp.response = cam.response;
     cp.shadows = CompositeParams::SHADOWS_RATIO;
     auto display = [&](const Mat& bg, const DifferentialImages& im) {
-        Mat lin, enc;
-        compositeDifferential(bg, im, lin, cp);
-        encode(lin, enc, cp.response, CV_32F);
-        min(max(enc, 0.0), 1.0, enc);
-        return Mat(enc * 255.0);
+        Mat d;
+        compositeDifferentialDisplay(bg, im, d, cp);
+        return d;
     };
     // vbme insert's sampling defaults (adaptive 2 .. 4 × spp, texture cone 0.1)
     DifferentialRenderer::Params dp;
@@ -877,11 +875,9 @@ void benchInsert(const BenchOptions& o) {
     cp.response = cam.response;
     cp.shadows = CompositeParams::SHADOWS_RATIO;  // as vbme insert composites
     auto display = [&](const DifferentialImages& im) {
-        Mat lin, enc;
-        compositeDifferential(bg, im, lin, cp);
-        encode(lin, enc, cp.response, CV_32F);
-        min(max(enc, 0.0), 1.0, enc);
-        return Mat(enc * 255.0);
+        Mat d;
+        compositeDifferentialDisplay(bg, im, d, cp);
+        return d;
     };
     Renderer::Params base;
     base.max_depth = scene.render.max_depth;

@@ -417,11 +417,9 @@ void SyntheticInsertionSequence::renderDifferentialTruth(int i, InputArray input
         DifferentialRenderer::create(dp)->render(*impl_->render_scene_, cam, half[h]);
     }
     auto display = [&](const DifferentialImages& im) {
-        Mat lin, enc;
-        compositeDifferential(bg, im, lin, cp);
-        encode(lin, enc, cp.response, CV_32F);
-        min(max(enc, 0.0), 1.0, enc);
-        return Mat(enc * 255.0);
+        Mat d;
+        compositeDifferentialDisplay(bg, im, d, cp);
+        return d;
     };
     DifferentialImages mean_layers;
     mean_layers.obj = (half[0].obj + half[1].obj) * 0.5;

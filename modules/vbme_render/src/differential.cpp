@@ -363,6 +363,15 @@ void compositeDifferential(InputArray background, const DifferentialImages& laye
                     params);
 }
 
+void compositeDifferentialDisplay(InputArray background, const DifferentialImages& layers,
+                                  OutputArray display, const CompositeParams& params) {
+    Mat linear, enc;
+    compositeDifferential(background, layers, linear, params);
+    encode(linear, enc, params.response, CV_32F);
+    min(max(enc, 0.0), 1.0, enc);
+    enc.convertTo(display, CV_32F, 255.0);
+}
+
 void encodeComposite(InputArray linear, OutputArray encoded, Response response, int ddepth) {
     if (ddepth == CV_8U) {
         encode(linear, encoded, response, CV_8U);

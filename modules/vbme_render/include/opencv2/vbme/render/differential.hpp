@@ -194,6 +194,19 @@ CV_EXPORTS void compositeDifferential(InputArray background, const DifferentialI
                                       OutputArray linear,
                                       const CompositeParams& params = CompositeParams());
 
+/** @brief The composite in the footage's display values, for error measures in 8-bit display
+units (adaptive sampling's target, benchmarks and truths against references):
+compositeDifferential() of @p layers over @p background, encoded with `params.response`,
+clamped to [0, 1] and scaled by 255, unquantised.
+@param background as for compositeDifferential().
+@param layers as for compositeDifferential().
+@param display receives CV_32FC3 values in [0, 255].
+@param params α, the response and the shadow mode. */
+CV_EXPORTS void compositeDifferentialDisplay(InputArray background,
+                                             const DifferentialImages& layers,
+                                             OutputArray display,
+                                             const CompositeParams& params = CompositeParams());
+
 /** @brief Denoises the difference layer `layers.diff` with a joint bilateral filter
 @cite Petschnigg2004 guided by the input frame, outside the objects' coverage.
 
