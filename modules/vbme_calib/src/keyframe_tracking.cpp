@@ -399,6 +399,29 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
     // matches with other seeds; the model with the smallest scale spread is kept.
     if (fresh) {
         rep.mapper_scale_spreads.push_back(rep.scale.spread);
+        // Takes another COLMAP run's model (@p alt, aligned as @p r2, @p p2, @p w2) instead of
+        // the one held if its spread is smaller and it kept 90 % of the registered keyframes (a
+        // model that lost keyframes is not preferred for its spread alone).
+        auto adoptIfBetter = [&](const CameraTrackingReport& r2, CameraPath& p2,
+                                 std::map<long long, Vec3d>& w2, std::vector<ColmapModel>& alt) {
+            if (r2.scale.spread >= rep.scale.spread || 10 * r2.registered < 9 * rep.registered)
+                return false;
+            rep.frames = r2.frames;
+            rep.registered = r2.registered;
+            rep.interpolated = r2.interpolated;
+            rep.scale = r2.scale;
+            rep.reprojection_rms = r2.reprojection_rms;
+            rep.refined_rms = r2.refined_rms;
+            rep.plane_points = r2.plane_points;
+            path = p2;
+            world = std::move(w2);
+            models = std::move(alt);
+            model = nullptr;
+            for (const auto& mm : models)
+                if (!model && mm.imageByName(names[0])) model = &mm;
+            rep.models = (int)models.size();
+            return true;
+        };
         std::string best_dir;  // the retry whose model is kept (empty: the first)
         for (int r = 1; r <= opt.mapper_retries && rep.scale.spread > opt.max_scale_spread; ++r) {
             ColmapOptions cr = co;
@@ -434,24 +457,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
             }
             t_realign.stop();
             rep.mapper_scale_spreads.push_back(r2.scale.spread);
-            // a model that lost keyframes is not preferred for its spread alone
-            if (r2.scale.spread >= rep.scale.spread || 10 * r2.registered < 9 * rep.registered)
-                continue;
-            rep.frames = r2.frames;
-            rep.registered = r2.registered;
-            rep.interpolated = r2.interpolated;
-            rep.scale = r2.scale;
-            rep.reprojection_rms = r2.reprojection_rms;
-            rep.refined_rms = r2.refined_rms;
-            rep.plane_points = r2.plane_points;
-            path = p2;
-            world = std::move(world2);
-            models = std::move(alt);
-            model = nullptr;
-            for (const auto& mm : models)
-                if (!model && mm.imageByName(names[0])) model = &mm;
-            rep.models = (int)models.size();
-            best_dir = name;
+            if (adoptIfBetter(r2, p2, world2, alt)) best_dir = name;
         }
         // The kept model is what a resumed run reads back.
         if (!best_dir.empty()) {
@@ -489,24 +495,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
                         detail::alignToRoomWithPoints(*m, names, frame0, opt, &r2, &world2);
                     t_realign.stop();
                     rep.mapper_scale_spreads.push_back(r2.scale.spread);
-                    if (r2.scale.spread < rep.scale.spread &&
-                        10 * r2.registered >= 9 * rep.registered) {
-                        rep.frames = r2.frames;
-                        rep.registered = r2.registered;
-                        rep.interpolated = r2.interpolated;
-                        rep.scale = r2.scale;
-                        rep.reprojection_rms = r2.reprojection_rms;
-                        rep.refined_rms = r2.refined_rms;
-                        rep.plane_points = r2.plane_points;
-                        path = p2;
-                        world = std::move(world2);
-                        models = std::move(alt);
-                        model = nullptr;
-                        for (const auto& mm : models)
-                            if (!model && mm.imageByName(names[0])) model = &mm;
-                        rep.models = (int)models.size();
-                        adopted = true;
-                    }
+                    adopted = adoptIfBetter(r2, p2, world2, alt);
                 }
             } catch (const cv::Exception& e) {
                 std::printf("camera tracking: COLMAP failed again: %s\n", e.err.c_str());
