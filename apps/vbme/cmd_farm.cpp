@@ -149,7 +149,10 @@ void runFarmSlurm(FarmOptions& o) {
                     quote(dir) +
                     "\nprep=$(sbatch --parsable prepare.sbatch)\n"
                     "render=$(sbatch --parsable --dependency=afterok:${prep%%;*} render.sbatch)\n"
-                    "assemble=$(sbatch --parsable --dependency=afterok:${render%%;*} "
+                    "# afterany: a requeued or preempted render task can leave an afterok\n"
+                    "# dependency never satisfied (Slurm judges the killed run), while its rerun\n"
+                    "# finishes the frames; assemble checks them itself\n"
+                    "assemble=$(sbatch --parsable --dependency=afterany:${render%%;*} "
                     "assemble.sbatch)\n"
                     "echo \"submitted: prepare ${prep%%;*}, render ${render%%;*} (array), "
                     "assemble ${assemble%%;*}\"\n");
