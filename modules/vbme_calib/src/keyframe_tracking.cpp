@@ -79,6 +79,14 @@ double median(std::vector<double> v) {
 
 namespace {
 
+// The first of COLMAP's models (largest first, ColmapModel::readTextModels()) that holds the
+// image @p name, or null.
+const ColmapModel* modelHolding(const std::vector<ColmapModel>& models, const std::string& name) {
+    for (const auto& m : models)
+        if (m.imageByName(name)) return &m;
+    return nullptr;
+}
+
 // selectKeyframes(), also returning every corner track it followed (when @p tracks is given;
 // then the corners are tracked even with a fixed stride).
 std::vector<int> selectKeyframesAndTracks(const std::vector<Mat>& gray, const KeyframeOptions& o,
@@ -358,9 +366,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
                 rep.stage_seconds.emplace_back("colmap (reused)", 0.0);
                 rep.stage_cpu_seconds.emplace_back("colmap (reused)", 0.0);
             }
-            model = nullptr;
-            for (const auto& m : models)
-                if (!model && m.imageByName(names[0])) model = &m;
+            model = modelHolding(models, names[0]);
             if (!model && !can_retry)
                 CV_Error(Error::StsError, "COLMAP did not register frame 0 in any of its " +
                                               std::to_string(models.size()) + " model(s); see " +
@@ -416,9 +422,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
             path = p2;
             world = std::move(w2);
             models = std::move(alt);
-            model = nullptr;
-            for (const auto& mm : models)
-                if (!model && mm.imageByName(names[0])) model = &mm;
+            model = modelHolding(models, names[0]);
             rep.models = (int)models.size();
             return true;
         };
@@ -440,9 +444,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
                 std::printf("camera tracking: the mapper failed: %s\n", e.err.c_str());
                 continue;
             }
-            const ColmapModel* m = nullptr;
-            for (const auto& mm : alt)
-                if (!m && mm.imageByName(names[0])) m = &mm;
+            const ColmapModel* m = modelHolding(alt, names[0]);
             if (!m) continue;
             StageTimer t_realign(rep, "align (retry)");
             CameraTrackingReport r2;
@@ -484,9 +486,7 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
                 std::vector<ColmapModel> alt =
                     runColmapSfM(kdir.string(), work_dir, frame0.camera.K, frame0.image_size, cr,
                                  &rep.stage_seconds, &rep.stage_cpu_seconds);
-                const ColmapModel* m = nullptr;
-                for (const auto& mm : alt)
-                    if (!m && mm.imageByName(names[0])) m = &mm;
+                const ColmapModel* m = modelHolding(alt, names[0]);
                 if (m) {
                     StageTimer t_realign(rep, "align (COLMAP again)");
                     CameraTrackingReport r2;
