@@ -469,120 +469,158 @@ private:
         K_ = std::max(p_.min_radius, std::min(p_.max_radius, K));
     }
 
+    /** vote()'s working memory: the candidates' rows at the pixel's row (setRow), and what
+    is gathered at one pixel. */
     struct VoteScratch {
-        std::vector<int> idx, pool, order;
+        std::vector<const uchar*> usable, zone;
+        std::vector<const Vec3b*> bgr, lab;
         std::vector<float> w, Y;
+        std::vector<uchar> inZone;
+        std::vector<Vec3b> c, l;  // colour and Lab of the gathered candidates
         std::vector<std::pair<float, float>> yw;
-        int kept = 0;
+
+        void setRow(const std::vector<Candidate>& cands, int y) {
+            const size_t n = cands.size();
+            usable.resize(n), zone.resize(n), bgr.resize(n), lab.resize(n);
+            w.resize(n), Y.resize(n), inZone.resize(n), c.resize(n), l.resize(n);
+            for (size_t i = 0; i < n; ++i) {
+                usable[i] = cands[i].usable.ptr<uchar>(y);
+                zone[i] = cands[i].zone.ptr<uchar>(y);
+                bgr[i] = cands[i].bgr.ptr<Vec3b>(y);
+                lab[i] = cands[i].lab.ptr<Vec3b>(y);
+            }
+        }
     };
 
-    /** The robust vote at (x, y) of the ROI over @p cands: leaves out the shadowed
-    candidates, finds the weighted Lab medoid and returns the weighted mean of its inliers in
-    @p out, with @p cost the medoid's mean weighted Lab distance to the kept candidates (how
-    well they agree). False if no candidate is left. */
-    static bool vote(const std::vector<Candidate>& cands, int y, int x, float tau, float zw,
-                     float inl, VoteScratch& sc, Vec3f& out, float& cost, int& excluded) {
+    static inline int labL1(const Vec3b& a, const Vec3b& b) {
+        return std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2]);
+    }
+
+    /** The robust vote at column @p x of the row given to VoteScratch::setRow over @p cands:
+    leaves out the shadowed candidates, finds the weighted Lab medoid and returns the weighted
+    mean of its inliers in @p out. False if no candidate is left. Two shortcuts leave the
+    result unchanged: the reference luminance is only sought when some candidate could be dark
+    enough to be left out, and the medoid only when the candidates do not all lie within the
+    inlier distance of each other. */
+    static bool vote(const std::vector<Candidate>& cands, int x, float tau, float zw, float inl,
+                     VoteScratch& sc, Vec3f& out, int& excluded) {
         const int n = (int)cands.size();
-        sc.idx.resize(n);
-        sc.w.resize(n);
-        sc.Y.resize(n);
-        sc.kept = 0;
-        std::vector<int>& idx = sc.idx;
-        std::vector<float>&w = sc.w, &Y = sc.Y;
+        float* w = sc.w.data();
+        float* Y = sc.Y.data();
+        uchar* inZone = sc.inZone.data();
+        Vec3b* c = sc.c.data();
+        Vec3b* l = sc.l.data();
         int m = 0;
+        float ymax = 0;
         for (int i = 0; i < n; ++i)
-            if (cands[i].usable.at<uchar>(y, x)) {
-                idx[m] = i;
-                Y[m] = lumaOf(cands[i].bgr.at<Vec3b>(y, x));
+            if (sc.usable[i][x]) {
+                c[m] = sc.bgr[i][x];
+                l[m] = sc.lab[i][x];
+                Y[m] = lumaOf(c[m]);
                 w[m] = cands[i].weight;
+                inZone[m] = sc.zone[i][x] != 0;
+                ymax = std::max(ymax, Y[m]);
                 ++m;
             }
         if (m == 0) return false;
-        // Unshadowed reference: the weighted median luminance of the candidates outside
-        // their zones or, if all are inside, the weighted upper quartile of all (a shadow
-        // only darkens).
-        auto& yw = sc.yw;
-        yw.clear();
-        for (int k = 0; k < m; ++k)
-            if (!cands[idx[k]].zone.at<uchar>(y, x)) yw.emplace_back(Y[k], w[k]);
-        float q = 0.5f;
-        if (yw.empty()) {
-            q = 0.75f;
-            for (int k = 0; k < m; ++k)
-                yw.emplace_back(Y[k], w[k]);
-        }
-        std::sort(yw.begin(), yw.end());
-        float tot = 0;
-        for (auto& e : yw)
-            tot += e.second;
-        float acc = 0, ref = yw.back().first;
-        for (auto& e : yw) {
-            acc += e.second;
-            if (acc >= q * tot) {
-                ref = e.first;
-                break;
-            }
-        }
-        // Leave out shadowed candidates; down-weight the rest of the zones.
+        // A candidate is left out only if it lies in its zone and is darker than (1 - tau)
+        // times the reference below, which is at most the brightest candidate's luminance:
+        // when no candidate in a zone is that dark, nothing is left out.
+        bool mayExclude = false;
+        for (int k = 0; k < m && !mayExclude; ++k)
+            mayExclude = inZone[k] && Y[k] < (1 - tau) * ymax;
         int kept = 0;
-        for (int k = 0; k < m; ++k) {
-            const bool inZone = cands[idx[k]].zone.at<uchar>(y, x) != 0;
-            if (inZone && Y[k] < (1 - tau) * ref) {
-                ++excluded;
-                continue;
-            }
-            idx[kept] = idx[k];
-            w[kept] = w[k] * (inZone ? zw : 1.f);
-            ++kept;
-        }
-        sc.kept = kept;
-        if (kept == 0) return false;
-        // Weighted medoid in Lab, then the weighted mean of its inliers. The medoid is
-        // sought among the kMedoidPool heaviest candidates (cost against all), which bounds
-        // the work at kMedoidPool · n distances.
-        auto& pool = sc.pool;
-        if (kept > kMedoidPool) {
-            sc.order.resize(kept);
-            for (int k = 0; k < kept; ++k)
-                sc.order[k] = k;
-            std::partial_sort(sc.order.begin(), sc.order.begin() + kMedoidPool, sc.order.end(),
-                              [&](int a, int b) { return w[a] > w[b]; });
-            pool.assign(sc.order.begin(), sc.order.begin() + kMedoidPool);
+        if (!mayExclude) {
+            for (int k = 0; k < m; ++k)
+                w[k] = w[k] * (inZone[k] ? zw : 1.f);
+            kept = m;
         } else {
-            pool.resize(kept);
-            for (int k = 0; k < kept; ++k)
-                pool[k] = k;
+            // Unshadowed reference: the weighted median luminance of the candidates outside
+            // their zones or, if all are inside, the weighted upper quartile of all (a shadow
+            // only darkens).
+            auto& yw = sc.yw;
+            yw.clear();
+            for (int k = 0; k < m; ++k)
+                if (!inZone[k]) yw.emplace_back(Y[k], w[k]);
+            float q = 0.5f;
+            if (yw.empty()) {
+                q = 0.75f;
+                for (int k = 0; k < m; ++k)
+                    yw.emplace_back(Y[k], w[k]);
+            }
+            std::sort(yw.begin(), yw.end());
+            float tot = 0;
+            for (auto& e : yw)
+                tot += e.second;
+            float acc = 0, ref = yw.back().first;
+            for (auto& e : yw) {
+                acc += e.second;
+                if (acc >= q * tot) {
+                    ref = e.first;
+                    break;
+                }
+            }
+            // Leave out shadowed candidates; down-weight the rest of the zones.
+            for (int k = 0; k < m; ++k) {
+                if (inZone[k] && Y[k] < (1 - tau) * ref) {
+                    ++excluded;
+                    continue;
+                }
+                c[kept] = c[k];
+                l[kept] = l[k];
+                w[kept] = w[k] * (inZone[k] ? zw : 1.f);
+                ++kept;
+            }
+            if (kept == 0) return false;
+        }
+        // Every pairwise L1 distance is at most the sum of the per-channel ranges: within the
+        // inlier distance, every candidate is an inlier of whichever medoid.
+        int lo0 = 255, lo1 = 255, lo2 = 255, hi0 = 0, hi1 = 0, hi2 = 0;
+        for (int b = 0; b < kept; ++b) {
+            lo0 = std::min(lo0, (int)l[b][0]), hi0 = std::max(hi0, (int)l[b][0]);
+            lo1 = std::min(lo1, (int)l[b][1]), hi1 = std::max(hi1, (int)l[b][1]);
+            lo2 = std::min(lo2, (int)l[b][2]), hi2 = std::max(hi2, (int)l[b][2]);
+        }
+        Vec3f sum(0, 0, 0);
+        float sw = 0;
+        if ((float)((hi0 - lo0) + (hi1 - lo1) + (hi2 - lo2)) <= inl) {
+            for (int b = 0; b < kept; ++b) {
+                sum += w[b] * Vec3f(c[b][0], c[b][1], c[b][2]);
+                sw += w[b];
+            }
+            out = sum / sw;
+            return true;
+        }
+        // Weighted medoid in Lab, then the weighted mean of its inliers. The medoid is
+        // sought among the kMedoidPool heaviest candidates (the earlier of equal weights;
+        // cost against all), which bounds the work at kMedoidPool · n distances.
+        int pool[kMedoidPool];
+        int np = 0;
+        for (int k = 0; k < kept; ++k) {
+            if (np == kMedoidPool && !(w[k] > w[pool[np - 1]])) continue;
+            int j = np < kMedoidPool ? np++ : np - 1;
+            for (; j > 0 && w[pool[j - 1]] < w[k]; --j)
+                pool[j] = pool[j - 1];
+            pool[j] = k;
         }
         int best = 0;
         float bestCost = FLT_MAX;
-        for (int a : pool) {
-            const Vec3b la = cands[idx[a]].lab.at<Vec3b>(y, x);
-            float c = 0;
-            for (int b = 0; b < kept && c < bestCost; ++b) {
-                const Vec3b lb = cands[idx[b]].lab.at<Vec3b>(y, x);
-                c += w[b] * (float)(std::abs(la[0] - lb[0]) + std::abs(la[1] - lb[1]) +
-                                    std::abs(la[2] - lb[2]));
-            }
-            if (c < bestCost) {
-                bestCost = c;
+        for (int q = 0; q < np; ++q) {
+            const int a = pool[q];
+            float cost = 0;
+            for (int b = 0; b < kept && cost < bestCost; ++b)
+                cost += w[b] * (float)labL1(l[a], l[b]);
+            if (cost < bestCost) {
+                bestCost = cost;
                 best = a;
             }
         }
-        const Vec3b lm = cands[idx[best]].lab.at<Vec3b>(y, x);
-        Vec3f sum(0, 0, 0);
-        float sw = 0, wall = 0;
         for (int b = 0; b < kept; ++b) {
-            wall += w[b];
-            const Vec3b lb = cands[idx[b]].lab.at<Vec3b>(y, x);
-            const float d = (float)(std::abs(lm[0] - lb[0]) + std::abs(lm[1] - lb[1]) +
-                                    std::abs(lm[2] - lb[2]));
-            if (d > inl) continue;
-            const Vec3b c = cands[idx[b]].bgr.at<Vec3b>(y, x);
-            sum += w[b] * Vec3f(c[0], c[1], c[2]);
+            if ((float)labL1(l[best], l[b]) > inl) continue;
+            sum += w[b] * Vec3f(c[b][0], c[b][1], c[b][2]);
             sw += w[b];
         }
         out = sum / sw;
-        cost = bestCost / std::max(1e-6f, wall);
         return true;
     }
 
@@ -681,15 +719,15 @@ private:
             parallel_for_(Range(0, roi.height), [&](const Range& rows) {
                 VoteScratch sc;
                 for (int y = rows.start; y < rows.end; ++y) {
+                    sc.setRow(cands, y);
                     const uchar* nd = need.ptr<uchar>(y);
                     uchar* vd = voted.ptr<uchar>(y);
                     for (int x = 0; x < roi.width; ++x) {
                         if (!nd[x] || vd[x]) continue;
                         vd[x] = 255;
                         Vec3f v;
-                        float cost = FLT_MAX;
                         int excl = 0;
-                        bool ok = vote(cands, y, x, tau, zw, inl, sc, v, cost, excl);
+                        bool ok = vote(cands, x, tau, zw, inl, sc, v, excl);
                         excludedRows[y] += excl;
                         if (!ok) continue;
                         B.at<Vec3f>(y, x) = v;
@@ -720,6 +758,30 @@ private:
                     if (h[x] || !ok[x]) continue;
                     const float yb = 0.114f * b[x][0] + 0.587f * b[x][1] + 0.299f * b[x][2];
                     if (yb > 1 && lumaOf(i[x]) < (1 - tau) * yb) d[x] = 255;
+                }
+            }
+            // Grid points darker than their consensus in ones and twos are noise: the shadow
+            // removed covers at least shadow_min_area of the hole (after a 3×3 opening), about
+            // a quarter of that in grid points, so only groups of at least an eighth of it (8-
+            // connected on the grid) are voted around.
+            {
+                const int gy0 = roi.y & 1, gx0 = roi.x & 1;
+                const int gh = (roi.height - gy0 + 1) / 2, gw = (roi.width - gx0 + 1) / 2;
+                Mat grid(gh, gw, CV_8U);
+                for (int i = 0; i < gh; ++i) {
+                    const uchar* d = dark.ptr<uchar>(gy0 + 2 * i) + gx0;
+                    uchar* g = grid.ptr<uchar>(i);
+                    for (int j = 0; j < gw; ++j)
+                        g[j] = d[2 * j];
+                }
+                Mat labels, gst, gc;
+                connectedComponentsWithStats(grid, labels, gst, gc, 8, CV_32S);
+                const int minPts = std::max(2, (int)std::ceil(p_.shadow_min_area * ft.area / 8.0));
+                for (int i = 0; i < gh; ++i) {
+                    uchar* d = dark.ptr<uchar>(gy0 + 2 * i) + gx0;
+                    const int* l = labels.ptr<int>(i);
+                    for (int j = 0; j < gw; ++j)
+                        if (l[j] > 0 && gst.at<int>(l[j], CC_STAT_AREA) < minPts) d[2 * j] = 0;
                 }
             }
             if (countNonZero(dark) > 0) {
