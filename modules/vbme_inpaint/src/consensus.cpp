@@ -700,7 +700,10 @@ private:
             ++st.neighbours;
             if (byFlow) ++st.flow_aligned;
             c.weight = (float)(std::exp(-(e / p_.ring_sigma) * (e / p_.ring_sigma)) * wt);
-            cvtColor(c.bgr, c.lab, COLOR_BGR2Lab);
+            // Lab is converted where the vote reads it only (labAt): a buffer kept from frame to
+            // frame, viewed at the ROI's size.
+            if (labPool_.size() <= cands.size()) labPool_.emplace_back(size_, CV_8UC3);
+            c.lab = labPool_[cands.size()](Rect(Point(), roi.size()));
             cands.push_back(std::move(c));
         }
 
@@ -715,7 +718,16 @@ private:
         std::vector<int> excludedRows(roi.height, 0);
         const float tau = (float)p_.shadow_threshold, zw = (float)p_.zone_weight;
         const float inl = (float)p_.inlier_distance;
+        std::vector<Point> todo;
         auto voteOver = [&](const Mat& need) {
+            todo.clear();
+            for (int y = 0; y < roi.height; ++y) {
+                const uchar* nd = need.ptr<uchar>(y);
+                const uchar* vd = voted.ptr<uchar>(y);
+                for (int x = 0; x < roi.width; ++x)
+                    if (nd[x] && !vd[x]) todo.emplace_back(x, y);
+            }
+            labAt(cands, todo);
             parallel_for_(Range(0, roi.height), [&](const Range& rows) {
                 VoteScratch sc;
                 for (int y = rows.start; y < rows.end; ++y) {
@@ -854,6 +866,26 @@ private:
         return out;
     }
 
+    /** Converts the candidates' colours to Lab at the points @p pts only (the same values as
+    converting their whole images). */
+    static void labAt(std::vector<Candidate>& cands, const std::vector<Point>& pts) {
+        const int n = (int)pts.size();
+        if (n == 0) return;
+        parallel_for_(Range(0, (int)cands.size()), [&](const Range& r) {
+            Mat src(1, n, CV_8UC3), dst;
+            for (int i = r.start; i < r.end; ++i) {
+                Candidate& c = cands[i];
+                Vec3b* s = src.ptr<Vec3b>();
+                for (int k = 0; k < n; ++k)
+                    s[k] = c.bgr.at<Vec3b>(pts[k]);
+                cvtColor(src, dst, COLOR_BGR2Lab);
+                const Vec3b* d = dst.ptr<Vec3b>();
+                for (int k = 0; k < n; ++k)
+                    c.lab.at<Vec3b>(pts[k]) = d[k];
+            }
+        });
+    }
+
     /** Aligns a homography-warped candidate further by dense DIS flow around the hole. */
     bool flowAlign(const Mat& grayT, const Mat& holeT, const Candidate& in, Candidate& out) {
         if (grayT.cols < 16 || grayT.rows < 16) return false;
@@ -987,6 +1019,7 @@ private:
     Ptr<ExemplarInpainter> exemplar_;
     Ptr<ORB> orb_;
     Ptr<DISOpticalFlow> dis_;
+    std::vector<Mat> labPool_;  // the candidates' Lab images, kept from frame to frame
     std::deque<CFrame> window_;
     Size size_;
     int pushed_ = 0, next_ = 0, K_ = -1;
