@@ -114,6 +114,8 @@ namespace {
 
 const int kRingWidth = 5;
 const int kMedoidPool = 8;
+// The zone around the hole is first voted on every kZoneGrid-th pixel of every kZoneGrid-th row.
+const int kZoneGrid = 4;
 // Every kDirectStep-th neighbour's map is refined directly (the others are one link from a
 // refined one), with kDirectIterations ECC iterations per round.
 const int kDirectStep = 2;
@@ -708,10 +710,11 @@ private:
         }
 
         // 2. The vote, for the hole and (to find the frame's shadow) the zone around it. The
-        // zone is first voted on every second pixel of every second row; then in full only
-        // around the grid points darker than their consensus (grown by 2 px and the rim the
-        // shadow removal blends over), which is where the shadow can be: the zone is about 15
-        // times the hole's area and its vote was most of the removal's time.
+        // zone is first voted on a grid of every kZoneGrid-th pixel and row; then in full only
+        // around the groups of grid points darker than their consensus (grown by the grid's
+        // step and the rim the shadow removal blends over), which is where the shadow can be:
+        // the zone is about 15 times the hole's area and its vote was most of the removal's
+        // time.
         Mat B(roi.size(), CV_32FC3, Scalar::all(0));
         Mat Bok = Mat::zeros(roi.size(), CV_8U);
         Mat voted = Mat::zeros(roi.size(), CV_8U);
@@ -752,10 +755,12 @@ private:
             voteOver(holeT);
         } else {
             Mat need = holeT.clone();
-            for (int y = (roi.y & 1); y < roi.height; y += 2) {
+            const int S = kZoneGrid;
+            const int gy0 = (S - roi.y % S) % S, gx0 = (S - roi.x % S) % S;  // frame's grid
+            for (int y = gy0; y < roi.height; y += S) {
                 const uchar* z = zoneT.ptr<uchar>(y);
                 uchar* nd = need.ptr<uchar>(y);
-                for (int x = (roi.x & 1); x < roi.width; x += 2)
+                for (int x = gx0; x < roi.width; x += S)
                     if (z[x]) nd[x] = 255;
             }
             voteOver(need);
@@ -774,30 +779,30 @@ private:
             }
             // Grid points darker than their consensus in ones and twos are noise: the shadow
             // removed covers at least shadow_min_area of the hole (after a 3×3 opening), about
-            // a quarter of that in grid points, so only groups of at least an eighth of it (8-
-            // connected on the grid) are voted around.
+            // 1/S² of that in grid points, so only groups of at least half of it (8-connected
+            // on the grid) are voted around.
             {
-                const int gy0 = roi.y & 1, gx0 = roi.x & 1;
-                const int gh = (roi.height - gy0 + 1) / 2, gw = (roi.width - gx0 + 1) / 2;
+                const int gh = (roi.height - gy0 + S - 1) / S, gw = (roi.width - gx0 + S - 1) / S;
                 Mat grid(gh, gw, CV_8U);
                 for (int i = 0; i < gh; ++i) {
-                    const uchar* d = dark.ptr<uchar>(gy0 + 2 * i) + gx0;
+                    const uchar* d = dark.ptr<uchar>(gy0 + S * i) + gx0;
                     uchar* g = grid.ptr<uchar>(i);
                     for (int j = 0; j < gw; ++j)
-                        g[j] = d[2 * j];
+                        g[j] = d[S * j];
                 }
                 Mat labels, gst, gc;
                 connectedComponentsWithStats(grid, labels, gst, gc, 8, CV_32S);
-                const int minPts = std::max(2, (int)std::ceil(p_.shadow_min_area * ft.area / 8.0));
+                const int minPts =
+                    std::max(2, (int)std::ceil(p_.shadow_min_area * ft.area / (2.0 * S * S)));
                 for (int i = 0; i < gh; ++i) {
-                    uchar* d = dark.ptr<uchar>(gy0 + 2 * i) + gx0;
+                    uchar* d = dark.ptr<uchar>(gy0 + S * i) + gx0;
                     const int* l = labels.ptr<int>(i);
                     for (int j = 0; j < gw; ++j)
-                        if (l[j] > 0 && gst.at<int>(l[j], CC_STAT_AREA) < minPts) d[2 * j] = 0;
+                        if (l[j] > 0 && gst.at<int>(l[j], CC_STAT_AREA) < minPts) d[S * j] = 0;
                 }
             }
             if (countNonZero(dark) > 0) {
-                const int g = 2 + 2 * (int)std::ceil(p_.shadow_smooth) + 1;
+                const int g = S + 2 * (int)std::ceil(p_.shadow_smooth) + 1;
                 dilate(dark, dark,
                        getStructuringElement(MORPH_ELLIPSE, Size(2 * g + 1, 2 * g + 1)));
                 bitwise_and(dark, zoneT, dark);
