@@ -7,6 +7,9 @@
 // decode and encode) are counters too, and "cpu_ms" is the process's CPU time per frame, all
 // threads. The *_Medium runs encode with x264's preset medium (the default before superfast).
 // BM_StageCpu_* run the stages one after another and give each one's CPU time per frame.
+// The shadows follow `vbme material-edit`'s default (--shadows auto, shadowModeFor): glass
+// removes the ball's shadow and casts its own, chrome keeps it; *_RemoveShadows and
+// *_KeepShadows ask for one or the other.
 //
 // The clip is rendered once and cached in $TMPDIR/vbme-perf-material-edit-v1-640x480-24f-8spp
 // (delete it to render again); all cores are used, as `vbme material-edit` does by default.
@@ -86,7 +89,7 @@ double loadAverage() {
 
 void BM_MaterialEdit(benchmark::State& state, const char* material, bool h264 = false,
                      const char* preset = nullptr, bool remove_shadows = false,
-                     bool quality_floor = false) {
+                     bool quality_floor = false, bool keep_shadows = false) {
     const Clip& c = clip();
     MaterialEditParams p;
     p.video = h264 ? c.video_h264 : c.video;
@@ -96,7 +99,11 @@ void BM_MaterialEdit(benchmark::State& state, const char* material, bool h264 = 
     p.focal = c.focal;
     p.force = true;
     if (preset) p.encode.preset = preset;
+    // `vbme material-edit`'s default, --shadows auto: removed and re-cast for glass, kept for
+    // chrome; remove_shadows asks for removal whatever the material, keep_shadows for keeping
+    p.shadows = shadowModeFor(p.material);
     if (remove_shadows) p.shadows = SHADOWS_REMOVE;  // removed, and re-cast for the material
+    if (keep_shadows) p.shadows = SHADOWS_KEEP;
     if (quality_floor) p.encode.min_psnr = 48;  // the overlays' default, asked for here
     Progress::setEnabled(false);
     std::vector<std::pair<std::string, double>> stages;
@@ -124,15 +131,20 @@ void BM_MaterialEdit(benchmark::State& state, const char* material, bool h264 = 
     state.SetLabel(std::string(material) + ", 640x480, " + std::to_string(c.frames) + " frames" +
                    (h264 ? ", H.264 input" : ", FFV1 input") +
                    (preset ? std::string(", x264 ") + preset : std::string()) +
-                   (remove_shadows ? ", shadows remove" : "") +
+                   (p.shadows == SHADOWS_REMOVE ? ", shadows remove" : ", shadows keep") +
                    (quality_floor ? ", quality floor (--min-psnr 48)" : ""));
 }
 
 void BM_Chrome(benchmark::State& s) {
     BM_MaterialEdit(s, "chrome");
 }
+// glass with the command's default shadows (auto: the old shadow removed, a glass one cast)
 void BM_Glass(benchmark::State& s) {
     BM_MaterialEdit(s, "glass");
+}
+// its peer with the original shadow kept (the library's default, MaterialEditParams::shadows)
+void BM_Glass_KeepShadows(benchmark::State& s) {
+    BM_MaterialEdit(s, "glass", false, nullptr, false, false, true);
 }
 // H.264 input, with the default Y'CbCr conversion (swscale's RGB path) and with the fast one
 // (VBME_YUV=fast, read once per process: run this benchmark alone with the variable set to
@@ -169,6 +181,7 @@ BENCHMARK(BM_Chrome_Medium)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.
 BENCHMARK(BM_Chrome_H264_Medium)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 BENCHMARK(BM_Chrome_H264)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 BENCHMARK(BM_Glass)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
+BENCHMARK(BM_Glass_KeepShadows)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 BENCHMARK(BM_Chrome_RemoveShadows)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 BENCHMARK(BM_Glass_RemoveShadows)->Unit(benchmark::kSecond)->UseRealTime()->MinTime(1.0);
 
