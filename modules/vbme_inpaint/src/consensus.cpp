@@ -781,8 +781,8 @@ private:
             // removed covers at least shadow_min_area of the hole (after a 3×3 opening), about
             // 1/S² of that in grid points, so only groups of at least half of it (8-connected
             // on the grid) are voted around.
-            {
-                const int gh = (roi.height - gy0 + S - 1) / S, gw = (roi.width - gx0 + S - 1) / S;
+            const int gh = (roi.height - gy0 + S - 1) / S, gw = (roi.width - gx0 + S - 1) / S;
+            if (gh > 0 && gw > 0) {
                 Mat grid(gh, gw, CV_8U);
                 for (int i = 0; i < gh; ++i) {
                     const uchar* d = dark.ptr<uchar>(gy0 + S * i) + gx0;
