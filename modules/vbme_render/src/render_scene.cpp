@@ -8,6 +8,10 @@
 #include <assimp/Importer.hpp>
 
 #include <cmath>
+#include <cstddef>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -394,23 +398,38 @@ RTCScene RenderSceneImpl::noObjectsScene() const {
     return no_objects_;
 }
 
+namespace {
+
+static_assert(offsetof(RTCRay, tnear) == 12 && offsetof(RTCRay, time) == 28 &&
+                  offsetof(RTCRay, flags) == 44 && alignof(RTCRay) >= 16,
+              "RTCRay: three 16-byte rows");
+
+/* Fills the ray with three 16-byte stores. Embree's single-ray kernels read (org, tnear) and
+(dir, time) with 16-byte loads first thing; had they been written by scalar stores (one per
+field), those loads could not be forwarded from the store buffer and would wait for the
+stores to retire: measured as the hottest instructions of both kernels (perf, cpu-clock). */
+inline void setRay(RTCRay& r, const Vec3f& o, const Vec3f& d, float tnear, float tfar) {
+#if defined(__SSE2__)
+    _mm_store_ps(&r.org_x, _mm_setr_ps(o[0], o[1], o[2], tnear));
+    _mm_store_ps(&r.dir_x, _mm_setr_ps(d[0], d[1], d[2], 0.f));  // time 0
+    // tfar, mask (all), id 0, flags 0
+    _mm_store_ps(&r.tfar,
+                 _mm_move_ss(_mm_castsi128_ps(_mm_setr_epi32(0, -1, 0, 0)), _mm_set_ss(tfar)));
+#else
+    r.org_x = o[0], r.org_y = o[1], r.org_z = o[2], r.tnear = tnear;
+    r.dir_x = d[0], r.dir_y = d[1], r.dir_z = d[2], r.time = 0.f;
+    r.tfar = tfar, r.mask = 0xffffffffu, r.id = 0, r.flags = 0;
+#endif
+}
+
+}  // namespace
+
 bool RenderSceneImpl::intersect(const Vec3f& o, const Vec3f& d, float tnear, float tfar,
                                 SurfaceHit& hit, bool with_objects) const {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRayHit rh;
-    rh.ray.org_x = o[0];
-    rh.ray.org_y = o[1];
-    rh.ray.org_z = o[2];
-    rh.ray.dir_x = d[0];
-    rh.ray.dir_y = d[1];
-    rh.ray.dir_z = d[2];
-    rh.ray.tnear = tnear;
-    rh.ray.tfar = tfar;
-    rh.ray.time = 0.f;
-    rh.ray.mask = 0xffffffffu;
-    rh.ray.id = 0;
-    rh.ray.flags = 0;
+    setRay(rh.ray, o, d, tnear, tfar);
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(sceneFor(with_objects), &ctx, &rh);
@@ -451,18 +470,7 @@ bool RenderSceneImpl::occluded(const Vec3f& o, const Vec3f& d, float tnear, floa
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRay r;
-    r.org_x = o[0];
-    r.org_y = o[1];
-    r.org_z = o[2];
-    r.dir_x = d[0];
-    r.dir_y = d[1];
-    r.dir_z = d[2];
-    r.tnear = tnear;
-    r.tfar = tfar;
-    r.time = 0.f;
-    r.mask = 0xffffffffu;
-    r.id = 0;
-    r.flags = 0;
+    setRay(r, o, d, tnear, tfar);
     rtcOccluded1(sceneFor(with_objects), &ctx, &r);
     return r.tfar < 0.f;  // Embree sets tfar to −inf on a hit
 }
