@@ -106,7 +106,8 @@ RenderSceneImpl::RenderSceneImpl(const Scene& scene, const Params& params)
         hi_ = Vec3f(0, 0, 0);
     }
 
-    for (const auto& g : geoms_) {
+    for (auto& g : geoms_) {
+        g.computeFaceNormals();
         has_objects_ = has_objects_ || g.kind == GeometryKind::OBJECT;
         hittable_emission_ = hittable_emission_ || g.kind == GeometryKind::LIGHT;
     }
@@ -441,8 +442,7 @@ bool RenderSceneImpl::intersect(const Vec3f& o, const Vec3f& d, float tnear, flo
     const Vec3f v0 = g.vertex(tri[0]), v1 = g.vertex(tri[1]), v2 = g.vertex(tri[2]);
     hit.t = rh.ray.tfar;
     hit.p = v0 * b0 + v1 * b1 + v2 * b2;
-    Vec3f ng = (v1 - v0).cross(v2 - v0);
-    ng *= 1.f / std::sqrt(ng.dot(ng));
+    const Vec3f ng = g.face_normal[rh.hit.primID];
     hit.ng = ng;
     if (!g.nrm.empty()) {
         Vec3f ns = g.nrm[tri[0]] * b0 + g.nrm[tri[1]] * b1 + g.nrm[tri[2]] * b2;

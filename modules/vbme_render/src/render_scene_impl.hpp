@@ -50,11 +50,24 @@ struct GeometryRec {
     std::vector<Vec2f> uv;           // per vertex (optional)
     std::vector<uint32_t> idx;       // 3 per triangle
     std::vector<int> prim_material;  // per triangle (optional)
+    std::vector<Vec3f> face_normal;  // per triangle: unit geometric normal (computeFaceNormals)
     int material = -1;               // when prim_material is empty
     int light = -1;                  // emitter index (LIGHT)
     size_t numVertices() const { return pos.size() / 3; }
     size_t numTriangles() const { return idx.size() / 3; }
     Vec3f vertex(uint32_t i) const { return Vec3f(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]); }
+    /** Fills face_normal: (v1 − v0) × (v2 − v0), normalised, for every triangle — once here
+    instead of at every hit (a square root and a division on each path vertex's chain). */
+    void computeFaceNormals() {
+        face_normal.resize(numTriangles());
+        for (size_t f = 0; f < face_normal.size(); ++f) {
+            const uint32_t* tri = &idx[3 * f];
+            const Vec3f v0 = vertex(tri[0]), v1 = vertex(tri[1]), v2 = vertex(tri[2]);
+            Vec3f ng = (v1 - v0).cross(v2 - v0);
+            ng *= 1.f / std::sqrt(ng.dot(ng));
+            face_normal[f] = ng;
+        }
+    }
 };
 
 class RenderSceneImpl : public RenderScene {

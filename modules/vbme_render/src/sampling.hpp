@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -61,14 +63,22 @@ struct Frame {
 inline Vec2f squareToConcentricDisk(const Vec2f& u) {
     const float ox = 2.f * u[0] - 1.f, oy = 2.f * u[1] - 1.f;
     if (ox == 0.f && oy == 0.f) return Vec2f(0, 0);
-    float r, theta;
-    if (std::abs(ox) > std::abs(oy)) {
-        r = ox;
-        theta = (kPi / 4.f) * (oy / ox);
-    } else {
-        r = oy;
-        theta = (kPi / 2.f) - (kPi / 4.f) * (ox / oy);
-    }
+    // The wedge (|ox| > |oy| or not) is a coin flip per sample: chosen by bit masks, not a
+    // branch that mispredicts half the time; one division. The same numbers as
+    //   |ox| > |oy|: r = ox, θ = (π/4)(oy/ox);  else: r = oy, θ = π/2 − (π/4)(ox/oy).
+    const uint32_t m = std::abs(ox) > std::abs(oy) ? 0xffffffffu : 0u;
+    auto pick = [m](float a, float b) {  // m ? a : b
+        uint32_t ia, ib;
+        std::memcpy(&ia, &a, 4);
+        std::memcpy(&ib, &b, 4);
+        const uint32_t r = (ia & m) | (ib & ~m);
+        float f;
+        std::memcpy(&f, &r, 4);
+        return f;
+    };
+    const float r = pick(ox, oy);
+    const float q = (kPi / 4.f) * (pick(oy, ox) / r);
+    const float theta = pick(q, (kPi / 2.f) - q);
     return Vec2f(r * std::cos(theta), r * std::sin(theta));
 }
 /** @brief Density of squareToConcentricDisk per unit area (1/π inside the disk). */
