@@ -117,6 +117,45 @@ TEST(RenderSampling, DiskAndTriangleAreUniform) {
     EXPECT_NEAR(sampling::squareToConcentricDiskPdf(Vec2f(0.1f, 0.2f)), 1 / CV_PI, 1e-6);
 }
 
+// The concentric map evaluates sin/cos by sinCosQuarter's polynomials: against the map
+// written with double-precision std::cos/std::sin (Shirley & Chiu), over a grid that covers
+// both wedges and the diagonals where they meet.
+TEST(RenderSampling, ConcentricDiskMatchesTheTrigonometricMap) {
+    double worst_trig = 0, worst_map = 0;
+    for (int i = -2000; i <= 2000; ++i) {
+        const float x = float(i) / 2000.f * (sampling::kPi / 4.f);
+        float s, c;
+        sampling::sinCosQuarter(x, s, c);
+        worst_trig = std::max(worst_trig, std::abs(s - std::sin(double(x))));
+        worst_trig = std::max(worst_trig, std::abs(c - std::cos(double(x))));
+    }
+    EXPECT_LT(worst_trig, 3e-7);
+    const int n = 256;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+            const Vec2f u(float(i) / n, float(j) / n);
+            const Vec2f p = sampling::squareToConcentricDisk(u);
+            const double ox = 2.0 * u[0] - 1.0, oy = 2.0 * u[1] - 1.0;
+            double r = 0, th = 0;
+            if (ox != 0 || oy != 0) {
+                if (std::abs(ox) > std::abs(oy)) {
+                    r = ox;
+                    th = CV_PI / 4 * (oy / ox);
+                } else {
+                    r = oy;
+                    th = CV_PI / 2 - CV_PI / 4 * (ox / oy);
+                }
+            }
+            worst_map = std::max(worst_map, std::abs(p[0] - r * std::cos(th)));
+            worst_map = std::max(worst_map, std::abs(p[1] - r * std::sin(th)));
+            ASSERT_LE(p[0] * p[0] + p[1] * p[1], 1.f + 1e-6f);
+        }
+    EXPECT_LT(worst_map, 1e-6);
+    std::printf(
+        "sinCosQuarter: %.2g from sin/cos; concentric map: %.2g from the trigonometric one\n",
+        worst_trig, worst_map);
+}
+
 TEST(RenderSampling, PowerHeuristic) {
     EXPECT_NEAR(sampling::powerHeuristic(1, 1.f, 1, 1.f), 0.5f, 1e-7);
     EXPECT_NEAR(sampling::powerHeuristic(1, 3.f, 1, 1.f), 0.9f, 1e-6);
