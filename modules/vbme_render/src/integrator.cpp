@@ -171,6 +171,12 @@ struct PathInfo {
     int64 rays = 0;
 };
 
+/** The camera ray's closest hit, traced ahead in a packet with its pixel's other samples. */
+struct CameraHit {
+    SurfaceHit hit;
+    bool found = false;
+};
+
 /** The state of a path at the start of a vertex: everything trace() needs to resume it. */
 struct PathState {
     Vec3f L = Vec3f(0, 0, 0), beta = Vec3f(1, 1, 1);
@@ -228,8 +234,8 @@ private:
     interacts with an object (info.forked is then set) — resuming it without the objects gives
     the path of the render without them, sample for sample. */
     Vec3f trace(const RenderSceneImpl& scene, const LightSelector& lights, PixelSampler& sampler,
-                PathState s, bool with_objects, bool track_objects, PathInfo& info,
-                PathState* fork) const;
+                PathState s, bool with_objects, bool track_objects, PathInfo& info, PathState* fork,
+                const CameraHit* camera_hit = nullptr) const;
     RenderStats renderImpl(const RenderScene& scene, const Camera& camera, RenderImages& out,
                            RenderImages* without, Progress* progress) const;
     Params p_;
@@ -237,7 +243,7 @@ private:
 
 Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lights,
                           PixelSampler& sampler, PathState s, bool with_objects, bool track_objects,
-                          PathInfo& info, PathState* fork) const {
+                          PathInfo& info, PathState* fork, const CameraHit* camera_hit) const {
     const bool nee = p_.integrator == PATH;
     const auto& emitters = scene.emitters();
     const int n_lights = (int)emitters.size();
@@ -252,7 +258,15 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
         const int depth = s.depth;
         if (fork && !info.forked) at_vertex = s;
         ++info.rays;
-        if (!scene.intersect(o, d, 0.f, kInf, hit, with_objects)) {
+        bool found;
+        if (camera_hit) {  // the first ray, already traced in a packet
+            found = camera_hit->found;
+            if (found) hit = camera_hit->hit;
+            camera_hit = nullptr;
+        } else {
+            found = scene.intersect(o, d, 0.f, kInf, hit, with_objects);
+        }
+        if (!found) {
             for (int li : scene.infiniteEmitters()) {
                 const Emitter& e = *emitters[li];
                 const Vec3f Le = e.radianceEscaped(d);
@@ -500,17 +514,47 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                 double ys[3] = {0, 0, 0}, yq[3] = {0, 0, 0}, lev[3] = {0, 0, 0};
                 double dp[3] = {0, 0, 0}, dl[3] = {0, 0, 0};  // Σ(L − Ln): minimum, later
                 uint32_t taken = 0;
+                // Camera rays in packets of up to 8 samples of this pixel (they start at one
+                // point and fan out over the pixel: coherent), traced ahead of their paths.
+                constexpr uint32_t kPacket = 8;
+                Vec3f cam_o[kPacket], cam_d[kPacket];
+                SurfaceHit cam_hit[kPacket];
+                bool cam_found[kPacket];
+                uint32_t packet_begin = 0, packet_end = 0;
                 auto takeSamples = [&](uint32_t upto) {
                     for (; taken < upto; ++taken) {
+                        if (p_.camera_packets && taken >= packet_end) {
+                            packet_begin = taken;
+                            packet_end = std::min(upto, taken + kPacket);
+                            for (uint32_t k = packet_begin; k < packet_end; ++k) {
+                                ps.setIndex(k);
+                                const Vec2f off =
+                                    filterOffset(p_.filter, ps.get2D(PathDims::kFilm));
+                                cam.generateRay(Point2f(x + off[0], y + off[1]),
+                                                cam_o[k - packet_begin], cam_d[k - packet_begin]);
+                            }
+                            scene.intersect8(cam_o, cam_d, int(packet_end - packet_begin), cam_hit,
+                                             cam_found, with_objects);
+                        }
                         ps.setIndex(taken);
-                        const Vec2f off = filterOffset(p_.filter, ps.get2D(PathDims::kFilm));
+                        CameraHit ch;
                         Vec3f o, d;
-                        cam.generateRay(Point2f(x + off[0], y + off[1]), o, d);
+                        if (p_.camera_packets) {
+                            const uint32_t k = taken - packet_begin;
+                            ch.found = cam_found[k];
+                            if (ch.found) ch.hit = cam_hit[k];
+                            o = cam_o[k];
+                            d = cam_d[k];
+                        } else {
+                            const Vec2f off = filterOffset(p_.filter, ps.get2D(PathDims::kFilm));
+                            cam.generateRay(Point2f(x + off[0], y + off[1]), o, d);
+                        }
                         PathInfo info;
                         PathState fork;
-                        Vec3f L = trace(scene, lights, ps, PathState::start(o, d, pixel_spread),
-                                        with_objects, track_objects, info,
-                                        differential ? &fork : nullptr);
+                        Vec3f L =
+                            trace(scene, lights, ps, PathState::start(o, d, pixel_spread),
+                                  with_objects, track_objects, info, differential ? &fork : nullptr,
+                                  p_.camera_packets ? &ch : nullptr);
                         Vec3f Ln = L;
                         if (info.forked) {
                             PathInfo info_n;

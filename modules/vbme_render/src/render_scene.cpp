@@ -436,13 +436,19 @@ bool RenderSceneImpl::intersect(const Vec3f& o, const Vec3f& d, float tnear, flo
     rtcIntersect1(sceneFor(with_objects), &ctx, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
 
-    const GeometryRec& g = geoms_[rh.hit.geomID];
-    const uint32_t* tri = &g.idx[3 * size_t(rh.hit.primID)];
-    const float b1 = rh.hit.u, b2 = rh.hit.v, b0 = 1.f - b1 - b2;
+    fillHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar, hit);
+    return true;
+}
+
+void RenderSceneImpl::fillHit(unsigned geom, unsigned prim, float u, float v, float t,
+                              SurfaceHit& hit) const {
+    const GeometryRec& g = geoms_[geom];
+    const uint32_t* tri = &g.idx[3 * size_t(prim)];
+    const float b1 = u, b2 = v, b0 = 1.f - b1 - b2;
     const Vec3f v0 = g.vertex(tri[0]), v1 = g.vertex(tri[1]), v2 = g.vertex(tri[2]);
-    hit.t = rh.ray.tfar;
+    hit.t = t;
     hit.p = v0 * b0 + v1 * b1 + v2 * b2;
-    const Vec3f ng = g.face_normal[rh.hit.primID];
+    const Vec3f ng = g.face_normal[prim];
     hit.ng = ng;
     if (!g.nrm.empty()) {
         Vec3f ns = g.nrm[tri[0]] * b0 + g.nrm[tri[1]] * b1 + g.nrm[tri[2]] * b2;
@@ -459,10 +465,44 @@ bool RenderSceneImpl::intersect(const Vec3f& o, const Vec3f& d, float tnear, flo
     }
     hit.uv =
         g.uv.empty() ? Vec2f(b1, b2) : g.uv[tri[0]] * b0 + g.uv[tri[1]] * b1 + g.uv[tri[2]] * b2;
-    hit.geom_id = (int)rh.hit.geomID;
-    hit.prim_id = (int)rh.hit.primID;
+    hit.geom_id = (int)geom;
+    hit.prim_id = (int)prim;
     hit.kind = g.kind;
-    return true;
+}
+
+void RenderSceneImpl::intersect8(const Vec3f* o, const Vec3f* d, int n, SurfaceHit* hit,
+                                 bool* found, bool with_objects) const {
+    CV_DbgAssert(n >= 1 && n <= 8);
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    alignas(32) int valid[8];
+    RTCRayHit8 rh;
+    for (int k = 0; k < 8; ++k) {
+        const int j = k < n ? k : 0;  // inactive lanes repeat ray 0 (not traced)
+        valid[k] = k < n ? -1 : 0;
+        rh.ray.org_x[k] = o[j][0];
+        rh.ray.org_y[k] = o[j][1];
+        rh.ray.org_z[k] = o[j][2];
+        rh.ray.tnear[k] = 0.f;
+        rh.ray.dir_x[k] = d[j][0];
+        rh.ray.dir_y[k] = d[j][1];
+        rh.ray.dir_z[k] = d[j][2];
+        rh.ray.time[k] = 0.f;
+        rh.ray.tfar[k] = std::numeric_limits<float>::infinity();
+        rh.ray.mask[k] = 0xffffffffu;
+        rh.ray.id[k] = 0;
+        rh.ray.flags[k] = 0;
+        rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect8(valid, sceneFor(with_objects), &ctx, &rh);
+    for (int k = 0; k < n; ++k) {
+        found[k] = rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;
+        if (found[k])
+            fillHit(rh.hit.geomID[k], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k], rh.ray.tfar[k],
+                    hit[k]);
+    }
 }
 
 bool RenderSceneImpl::occluded(const Vec3f& o, const Vec3f& d, float tnear, float tfar,

@@ -89,6 +89,11 @@ public:
                    bool with_objects = true) const override;
     bool occluded(const Vec3f& o, const Vec3f& d, float tnear, float tfar,
                   bool with_objects = true) const override;
+    /** Closest hits of @p n ≤ 8 rays o[k] + t·d[k], t in (0, ∞), traced as one packet
+    (rtcIntersect8, coherent): found[k] tells whether hit[k] was filled. Meant for camera rays,
+    which start at one point and fan out over a pixel. */
+    void intersect8(const Vec3f* o, const Vec3f* d, int n, SurfaceHit* hit, bool* found,
+                    bool with_objects) const;
 
     const GeometryRec& geometry(int g) const { return geoms_[g]; }
     const MaterialRec& material(int g, int prim) const {
@@ -129,6 +134,9 @@ public:
     const std::vector<int>& infiniteEmitters() const { return infinite_; }
 
 private:
+    /** The hit record of triangle @p prim of geometry @p geom at barycentrics (u, v), distance t.
+     */
+    void fillHit(unsigned geom, unsigned prim, float u, float v, float t, SurfaceHit& hit) const;
     void addRoom();
     void addMesh(const SceneObject& o, GeometryKind kind, int index, const std::string& field);
     void addLight(const Light& l, int index);
