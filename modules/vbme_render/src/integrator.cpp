@@ -333,6 +333,19 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
         const Vec2f u_sel_lobe = (nee_here && n_lights > 1) || !m.single_lobe
                                      ? sampler.get2D(PathDims::dim(depth, PathDims::kLightSelect))
                                      : Vec2f(0.f, 0.f);
+        // The last vertex: when nothing can be hit or escaped to that emits, the ray the BSDF
+        // would sample adds nothing (unless what it meets must be known: track_objects).
+        const bool last =
+            depth + 1 >= p_.max_depth && !track_objects && nee && !scene.hasHittableEmission();
+        // BSDF sampling, ahead of the shadow ray: neither depends on the other, so the core
+        // overlaps the sampler's and the BSDF's dependency chain with the shadow ray's traversal
+        // (the same numbers as drawn after it).
+        BsdfSample bs;
+        bool sampled = false;
+        if (!last) {
+            const Vec2f ud = sampler.get2D(PathDims::dim(depth, PathDims::kBsdfDir));
+            sampled = bsdf.sample(wo, ud, u_sel_lobe[1], diffuse, bs);
+        }
         if (nee_here) {
             const float ul = u_sel_lobe[0];
             const int li = n_lights > 1 ? lights.select(ul) : 0;
@@ -374,16 +387,7 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
             }
         }
 
-        // The last vertex: when nothing can be hit or escaped to that emits, the ray the BSDF
-        // would sample adds nothing (unless what it meets must be known: track_objects).
-        if (depth + 1 >= p_.max_depth && !track_objects && nee && !scene.hasHittableEmission())
-            break;
-
-        // BSDF sampling.
-        const float ulobe = u_sel_lobe[1];
-        const Vec2f ud = sampler.get2D(PathDims::dim(depth, PathDims::kBsdfDir));
-        BsdfSample bs;
-        if (!bsdf.sample(wo, ud, ulobe, diffuse, bs)) break;
+        if (last || !sampled) break;
         if (isBlack(bs.weight) || !(bs.pdf > 0.f)) break;
         beta = mul(beta, bs.weight);
         Vec3f wi = frame.toWorld(bs.wi);
