@@ -1,11 +1,14 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // vbme bench: whole-pipeline figures on input made in code (per-stage figures are in perf/).
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -50,8 +53,15 @@ struct BenchOptions {
     double error = 0.5;         // insert: adaptive sampling's target (8-bit display values)
     double texture_cone = 0.1;  // insert: texture filtering variants: cone spread (radians)
     double roulette = 0;        // insert: adaptive variant: untouched pixels going on
-    int denoise = 0;            // insert: experiment: also the last variant denoised (radius)
-    std::string cache;  // insert: where the reference is cached (default: ./vbme-bench-cache)
+    int denoise = 1;            // insert: radius of the denoised variants (vbme insert's default)
+    int ref_chunk_spp = 256;    // insert: the reference is rendered and cached in chunks of this
+    bool ref_only = false;      // insert: only render the reference's missing chunks
+    bool ref_cached_only = false;  // insert: the reference from the cached chunks only
+    std::vector<double> errors;    // insert: more variants: insert's setting at these targets
+    std::vector<int> min_spps;     // insert: more variants: insert's setting at these minimums
+    std::string cache;    // insert: where the reference is cached (default: the build folder's
+                          // vbme-bench-cache, else ./vbme-bench-cache)
+    bool moving = false;  // denoise: a hand-held (moving) camera instead of a static one
     std::string clip, methods = "keyframes,full";  // track-camera
 };
 
@@ -698,13 +708,19 @@ void benchTrackCamera(const BenchOptions& o) {
 // of the same frame with the object (the peer measured in the same run).
 // With --denoise R, the last setting again with its difference layer denoised
 // (denoiseDifference, as vbme insert --denoise R).
-// The difference layer's denoising (vbme insert --denoise R) on a static camera: the footage's
-// frames are renders with a seed each (their noise changes from frame to frame, as a sensor's
-// does), the insertion's differential render is the same in every frame (fixed seed, one
-// camera), and a high-spp render (another seed) is the reference. Per frame, the change the
-// insertion makes in display values, E = composite − footage, is compared with the reference's
-// E on the same footage: RMSE (error), and the mean |E(t+1) − E(t)| (flicker) over the pixels
-// outside the object's coverage where the difference layer is not 0.
+// The difference layer's denoising (vbme insert --denoise R), on a static camera or, with
+// --moving, a hand-held one (the demo room's walk at its speed, 0.6 m in 24 frames). The
+// footage's frames are renders with a seed each (their noise changes from frame to frame, as a
+// sensor's does); the insertion's differential render uses one seed in every frame, as vbme
+// insert does (so on a static camera it is the same in every frame), with vbme insert's
+// sampling defaults; a high-spp render per frame (seeds of their own) is the reference. Per
+// frame, the change the insertion makes in display values, E = composite − footage, is compared
+// with the reference's E on the same footage: RMSE (error), and the mean |E(t+1) − E(t)|
+// (flicker) over the pixels outside the object's coverage where the difference layer is not 0
+// (in frame t or t+1). With a moving camera E changes also because the view does, as the
+// reference's own flicker shows; what the insertion adds above it is its noise's flicker, also
+// printed as the mean |e(t+1) − e(t)| of its error e = E − the reference's E (which holds the
+// reference's own noise too).
 void benchDenoise(const BenchOptions& o) {
     using namespace cv;
     using namespace cv::vbme;
@@ -712,32 +728,37 @@ void benchDenoise(const BenchOptions& o) {
     const int R = o.denoise > 0 ? o.denoise : 1;
     const int frames = std::max(2, std::min(o.frames, 24));
     const fs::path dir =
-        fs::temp_directory_path() / format("vbme-bench-denoise-%dx%d", o.width, o.height);
+        fs::temp_directory_path() / format("vbme-bench-denoise-%dx%d%s", o.width, o.height,
+                                           o.moving ? format("-moving%d", frames).c_str() : "");
     SyntheticInsertionSequence::Params sp;
     sp.size = Size(o.width, o.height);
-    sp.frames = 1;
+    sp.frames = o.moving ? frames : 1;
     sp.spp = 8;  // the footage
-    sp.travel = 0;
-    sp.shake_m = 0;
-    sp.shake_deg = 0;
+    if (o.moving) {
+        sp.travel *= frames / 24.0;  // the demo's walking speed
+    } else {
+        sp.travel = 0;
+        sp.shake_m = 0;
+        sp.shake_deg = 0;
+    }
     const SyntheticInsertionSequence seq(dir.string(), sp);
     const Scene& scene = seq.trueScene();
-    const Camera cam = seq.cameras()[0];
+    auto camera = [&](int t) { return seq.cameras()[o.moving ? t : 0]; };
     std::vector<Mat> footage(frames);
     for (int t = 0; t < frames; ++t) {
         Mat truth, region;
-        seq.renderFrame(0, footage[t], truth, region, sp.seed + 1000 + t);
+        seq.renderFrame(o.moving ? t : 0, footage[t], truth, region, sp.seed + 1000 + t);
     }
     const Ptr<RenderScene> rs = RenderScene::create(scene);
     CompositeParams cp;
-    cp.response = cam.response;
+    cp.response = camera(0).response;
     cp.shadows = CompositeParams::SHADOWS_RATIO;
     auto display = [&](const Mat& bg, const DifferentialImages& im) {
         Mat d;
         compositeDifferentialDisplay(bg, im, d, cp);
         return d;
     };
-    // vbme insert's sampling defaults (adaptive 2 .. 4 × spp, texture cone 0.1)
+    // vbme insert's sampling defaults (adaptive 2 .. 4 × spp, texture cone 0.1), one seed
     DifferentialRenderer::Params dp;
     dp.render.spp = 4 * o.spp;
     dp.render.max_depth = scene.render.max_depth;
@@ -745,57 +766,70 @@ void benchDenoise(const BenchOptions& o) {
     dp.render.adaptive_min_spp = o.min_spp;
     dp.render.adaptive_error = (float)o.error;
     dp.render.texture_cone = (float)o.texture_cone;
-    DifferentialImages im;
-    const RenderStats st = DifferentialRenderer::create(dp)->render(*rs, cam, im);
-    DifferentialImages ref;
-    {
-        DifferentialRenderer::Params rp = dp;
-        rp.render.spp = o.ref_spp > 0 ? o.ref_spp : 1024;
-        rp.render.adaptive_min_spp = 0;
-        rp.render.seed = scene.render.seed + 0x5eed;
-        std::printf("denoise: %dx%d static camera, %d footage frames; reference %d spp ...\n",
-                    o.width, o.height, frames, rp.render.spp);
-        std::fflush(stdout);
-        DifferentialRenderer::create(rp)->render(*rs, cam, ref);
+    DifferentialRenderer::Params rp = dp;
+    rp.render.spp = o.ref_spp > 0 ? o.ref_spp : 1024;
+    rp.render.adaptive_min_spp = 0;
+    std::printf("denoise: %dx%d %s camera, %d footage frames; reference %d spp per frame ...\n",
+                o.width, o.height, o.moving ? "hand-held (moving)" : "static", frames,
+                rp.render.spp);
+    std::fflush(stdout);
+    std::vector<DifferentialImages> im(o.moving ? frames : 1), ref(o.moving ? frames : 1);
+    double paths = 0;
+    for (size_t t = 0; t < im.size(); ++t) {
+        paths += DifferentialRenderer::create(dp)->render(*rs, camera((int)t), im[t]).paths;
+        rp.render.seed = scene.render.seed + 0x5eed + t;
+        Progress progress(format("reference %d/%d", (int)t + 1, (int)ref.size()),
+                          (int64)camera((int)t).image_size.area());
+        DifferentialRenderer::create(rp)->render(*rs, camera((int)t), ref[t], &progress);
     }
+    auto layersAt = [&](const std::vector<DifferentialImages>& v,
+                        int t) -> const DifferentialImages& { return v[o.moving ? t : 0]; };
     // where it matters: outside the coverage, where the difference layer is not 0
-    Mat region(im.diff.size(), CV_8U, Scalar(0));
-    for (int y = 0; y < region.rows; ++y)
-        for (int x = 0; x < region.cols; ++x)
-            region.at<uchar>(y, x) =
-                im.mask.at<float>(y, x) == 0 && im.diff.at<Vec3f>(y, x) != Vec3f(0, 0, 0);
-    const int n_region = countNonZero(region);
+    std::vector<Mat> regions(frames);
+    for (int t = 0; t < frames; ++t) {
+        const DifferentialImages& l = layersAt(im, t);
+        regions[t] = Mat(l.diff.size(), CV_8U, Scalar(0));
+        for (int y = 0; y < l.diff.rows; ++y)
+            for (int x = 0; x < l.diff.cols; ++x)
+                regions[t].at<uchar>(y, x) =
+                    l.mask.at<float>(y, x) == 0 && l.diff.at<Vec3f>(y, x) != Vec3f(0, 0, 0);
+    }
+    const int n_region = countNonZero(regions[0]);
     struct Result {
         std::string name;
-        double rmse = 0, flicker = 0, ms = 0;
+        double rmse = 0, flicker = 0, error_flicker = 0, ms = 0;
     };
     std::vector<Result> res;
     for (int r : {0, R}) {
         Result out;
         out.name = r ? format("denoised (r %d)", r) : std::string("not denoised");
         Mat prev_e, prev_ref_e;
-        double flick = 0, flick_ref = 0, se = 0;
+        double flick = 0, flick_ref = 0, flick_err = 0, se = 0;
         for (int t = 0; t < frames; ++t) {
-            DifferentialImages layers = im;
-            layers.diff = im.diff.clone();
+            DifferentialImages layers = layersAt(im, t);
+            layers.diff = layers.diff.clone();
             const double c0 = cpuSeconds(RUSAGE_SELF);
             if (r) denoiseDifference(layers, footage[t], r);
             out.ms += 1000 * (cpuSeconds(RUSAGE_SELF) - c0) / frames;
             Mat bg;
             footage[t].convertTo(bg, CV_32FC3);
             const Mat e = display(footage[t], layers) - bg;
-            const Mat ref_e = display(footage[t], ref) - bg;
+            const Mat ref_e = display(footage[t], layersAt(ref, t)) - bg;
             Mat d = e - ref_e;
             se += mean(Mat(d.mul(d)).reshape(1))[0] / frames;
             if (t > 0) {
+                const Mat region = regions[t] | regions[t - 1];
                 flick += mean(abs(e - prev_e), region)[0] / (frames - 1);
                 flick_ref += mean(abs(ref_e - prev_ref_e), region)[0] / (frames - 1);
+                flick_err +=
+                    mean(abs((e - ref_e) - (prev_e - prev_ref_e)), region)[0] / (frames - 1);
             }
             prev_e = e;
             prev_ref_e = ref_e;
         }
         out.rmse = std::sqrt(se);
         out.flicker = flick;
+        out.error_flicker = flick_err;
         res.push_back(out);
         if (!r) {
             Result rr;
@@ -809,22 +843,80 @@ void benchDenoise(const BenchOptions& o) {
         Mat a, b;
         footage[t].convertTo(a, CV_32FC3);
         footage[t - 1].convertTo(b, CV_32FC3);
-        footage_flicker += mean(abs(a - b), region)[0] / (frames - 1);
+        footage_flicker += mean(abs(a - b), regions[t] | regions[t - 1])[0] / (frames - 1);
     }
     std::printf(
         "  insertion render: %.1f spp mean; region (outside the coverage, difference != 0): "
-        "%d pixels; footage's own frame-to-frame change there %.3f\n",
-        double(st.paths) / im.diff.total(), n_region, footage_flicker);
+        "%d pixels in frame 0; footage's own frame-to-frame change there %.3f\n",
+        paths / (double(footage[0].total()) * im.size()), n_region, footage_flicker);
     for (const Result& r : res) {
         if (r.name == "reference")
             std::printf("  %-20s flicker %.3f (8-bit display, mean |E(t+1) - E(t)|)\n",
                         r.name.c_str(), r.flicker);
         else
             std::printf(
-                "  %-20s RMSE %.3f against the reference, flicker %.3f (8-bit display), "
+                "  %-20s RMSE %.3f against the reference, flicker %.3f, its error's flicker "
+                "%.3f (mean |e(t+1) - e(t)|, e = E - the reference's E; 8-bit display), "
                 "%.1f ms CPU per frame\n",
-                r.name.c_str(), r.rmse, r.flicker, r.ms);
+                r.name.c_str(), r.rmse, r.flicker, r.error_flicker, r.ms);
     }
+}
+
+// FNV-1a over bytes, continuing from @p h.
+uint64_t fnv1a(const void* data, size_t n, uint64_t h = 1469598103934665603ull) {
+    const unsigned char* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < n; ++i)
+        h = (h ^ p[i]) * 1099511628211ull;
+    return h;
+}
+
+uint64_t fnv1aFile(const std::filesystem::path& file, uint64_t h) {
+    std::ifstream in(file, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    h = fnv1a(file.filename().string().data(), file.filename().string().size(), h);
+    return fnv1a(bytes.data(), bytes.size(), h);
+}
+
+// Sum of differential layers (for averaging renders of equal spp).
+void addLayers(cv::vbme::DifferentialImages& sum, const cv::vbme::DifferentialImages& im) {
+    auto add = [](cv::Mat& s, const cv::Mat& m) {
+        if (m.empty()) return;
+        if (s.empty())
+            s = m.clone();
+        else
+            s += m;
+    };
+    add(sum.obj, im.obj);
+    add(sum.noobj, im.noobj);
+    add(sum.diff, im.diff);
+    add(sum.mask, im.mask);
+    add(sum.object, im.object);
+}
+
+cv::vbme::DifferentialImages scaledLayers(const cv::vbme::DifferentialImages& sum, double s) {
+    cv::vbme::DifferentialImages out;
+    auto sc = [s](const cv::Mat& m) { return m.empty() ? cv::Mat() : cv::Mat(m * s); };
+    out.obj = sc(sum.obj);
+    out.noobj = sc(sum.noobj);
+    out.diff = sc(sum.diff);
+    out.mask = sc(sum.mask);
+    out.object = sc(sum.object);
+    return out;
+}
+
+double rmseOf(const cv::Mat& a, const cv::Mat& b) {
+    cv::Mat d = a - b;
+    return std::sqrt(cv::mean(cv::Mat(d.mul(d)).reshape(1))[0]);
+}
+
+// The default folder of the bench's cached renders: the build folder's vbme-bench-cache when
+// the program runs from its build folder, else ./vbme-bench-cache.
+std::filesystem::path defaultBenchCache() {
+#ifdef VBME_BUILD_DIR
+    if (std::filesystem::is_directory(VBME_BUILD_DIR))
+        return std::filesystem::path(VBME_BUILD_DIR) / "vbme-bench-cache";
+#endif
+    return std::filesystem::current_path() / "vbme-bench-cache";
 }
 
 void benchInsert(const BenchOptions& o) {
@@ -850,17 +942,24 @@ void benchInsert(const BenchOptions& o) {
     ip.work = (dir / "work").string();
     ip.spp = o.spp;
     ip.force = true;
-    const PipelineReport rep = runInsertion(ip);
-
-    std::printf("insert %dx%d, %d frames, vbme insert's defaults (%d spp), %d threads:\n", o.width,
-                o.height, rep.frames_processed, (int)rep.figure("spp"), getNumThreads());
-    for (const auto& kv : rep.seconds)
-        std::printf("  %-10s %8.2f s\n", kv.first.c_str(), kv.second);
-    std::printf("  per frame (differential render + composite) %.2f s\n",
-                rep.figure("seconds_per_frame"));
+    const InsertionParams insert_defaults = ip;  // every sampling field at vbme insert's default
+    if (!o.ref_only) {
+        const PipelineReport rep = runInsertion(ip);
+        std::printf("insert %dx%d, %d frames, vbme insert's defaults (%d spp), %d threads:\n",
+                    o.width, o.height, rep.frames_processed, (int)rep.figure("spp"),
+                    getNumThreads());
+        for (const auto& kv : rep.seconds)
+            std::printf("  %-10s %8.2f s\n", kv.first.c_str(), kv.second);
+        std::printf("  per frame (differential render + composite) %.2f s\n",
+                    rep.figure("seconds_per_frame"));
+    } else {
+        InsertionParams pp = ip;
+        pp.prepare_only = true;
+        runInsertion(pp);
+    }
 
     // Frame 0 again, from the prepared scene, with each sampling setting; the composite's
-    // error against a high-spp reference (another seed) in 8-bit display values.
+    // error against a high-spp reference (other seeds) in 8-bit display values.
     const Scene scene = Scene::read((dir / "work" / "prepared_scene.yml").string());
     Camera cam = seq.cameras()[0];
     cam.response = scene.camera.response;
@@ -882,7 +981,16 @@ void benchInsert(const BenchOptions& o) {
     Renderer::Params base;
     base.max_depth = scene.render.max_depth;
     base.seed = scene.render.seed;
+
+    // The reference: uniform renders of --ref-chunk-spp each with seeds of their own (base
+    // seed + 0x5eed + k), each cached as a multi-layer EXR (written to a temporary name, then
+    // renamed) under a key of everything the render depends on: the prepared scene (its
+    // temporary folder's name left out), the files it reads, frame 0 of the footage, the chunk
+    // spp, path length and seed. Their layers are averaged; the even and odd chunks' averages
+    // (two independent halves) give the reference's own noise.
     Mat ref;
+    double ref_noise = 0;
+    int ref_spp = 0;
     if (o.ref_spp > 0) {
         std::string text;
         {
@@ -891,73 +999,135 @@ void benchInsert(const BenchOptions& o) {
             ss << in.rdbuf();
             text = ss.str();
         }
-        const fs::path cache =
-            o.cache.empty() ? fs::current_path() / "vbme-bench-cache" : fs::path(o.cache);
+        for (size_t at; (at = text.find(dir.string())) != std::string::npos;)
+            text.replace(at, dir.string().size(), "<dir>");
+        uint64_t key = fnv1a(text.data(), text.size());
+        std::vector<fs::path> inputs;
+        for (const auto& e : fs::recursive_directory_iterator(dir / "work" / "albedo"))
+            if (e.is_regular_file()) inputs.push_back(e.path());
+        std::sort(inputs.begin(), inputs.end());
+        inputs.push_back(dir / "object.obj");
+        for (const fs::path& f : inputs)
+            key = fnv1aFile(f, key);
+        CV_Assert(bg.isContinuous());
+        key = fnv1a(bg.data, bg.total() * bg.elemSize(), key);
+        const int64 settings[3] = {o.ref_chunk_spp, base.max_depth, (int64)base.seed};
+        key = fnv1a(settings, sizeof(settings), key);
+        const fs::path cache = (o.cache.empty() ? defaultBenchCache() : fs::path(o.cache)) /
+                               format("insert-ref-%dx%d-%dspp-%016llx", o.width, o.height,
+                                      o.ref_chunk_spp, (unsigned long long)key);
         fs::create_directories(cache);
-        const fs::path ref_file =
-            cache / format("insert-ref-%dx%d-%dspp-d%d-%016llx.yml.gz", o.width, o.height,
-                           o.ref_spp, base.max_depth,
-                           (unsigned long long)std::hash<std::string>()(text));
-        if (fs::exists(ref_file)) {
-            FileStorage f(ref_file.string(), FileStorage::READ);
-            f["display"] >> ref;
-        }
-        if (ref.empty() || ref.size() != bg.size()) {
-            std::printf("  reference: %d spp (another seed), rendered once into %s ...\n",
-                        o.ref_spp, ref_file.string().c_str());
-            std::fflush(stdout);
-            DifferentialRenderer::Params dp;
-            dp.render = base;
-            dp.render.spp = o.ref_spp;
-            dp.render.seed = base.seed + 0x5eed;
+        const int chunks = (o.ref_spp + o.ref_chunk_spp - 1) / o.ref_chunk_spp;
+        std::printf("  reference: %d chunks of %d spp (seeds of their own), cached in %s\n", chunks,
+                    o.ref_chunk_spp, cache.string().c_str());
+        std::fflush(stdout);
+        DifferentialImages sum[2];
+        int count[2] = {0, 0};
+        for (int k = 0; k < chunks; ++k) {
+            const fs::path file = cache / format("chunk-%04d.exr", k);
             DifferentialImages im;
-            const RenderStats st = DifferentialRenderer::create(dp)->render(*rs, cam, im, nullptr);
-            ref = display(im);
-            const std::string tmp = ref_file.string() + ".tmp.yml.gz";
-            {
-                FileStorage f(tmp, FileStorage::WRITE);
-                f << "display" << ref;
+            if (fs::exists(file)) {
+                im = readDifferentialExr(file.string());
+            } else if (o.ref_cached_only) {
+                continue;
+            } else {
+                DifferentialRenderer::Params dp;
+                dp.render = base;
+                dp.render.spp = o.ref_chunk_spp;
+                dp.render.seed = base.seed + 0x5eed + k;
+                Progress progress(format("reference chunk %d/%d", k + 1, chunks),
+                                  (int64)bg.total());
+                const RenderStats st =
+                    DifferentialRenderer::create(dp)->render(*rs, cam, im, &progress);
+                progress.finish();
+                const std::string tmp = file.string() + format(".tmp%d.exr", (int)getpid());
+                writeDifferentialExr(tmp, im);
+                fs::rename(tmp, file);
+                std::printf("  reference chunk %d/%d: %.1f s\n", k + 1, chunks, st.seconds);
+                std::fflush(stdout);
             }
-            fs::rename(tmp, ref_file);
-            std::printf("  reference took %.1f s\n", st.seconds);
-        } else {
-            std::printf("  reference: %d spp, cached in %s\n", o.ref_spp,
-                        ref_file.string().c_str());
+            addLayers(sum[k % 2], im);
+            ++count[k % 2];
         }
+        if (o.ref_only) return;
+        if (count[0] + count[1] < 2)
+            CV_Error(Error::StsError,
+                     format("the reference needs at least 2 cached chunks (%d found in %s)",
+                            count[0] + count[1], cache.string().c_str()));
+        DifferentialImages all;
+        addLayers(all, sum[0]);
+        addLayers(all, sum[1]);
+        const double a = count[0], b = count[1];
+        ref = display(scaledLayers(all, 1.0 / (a + b)));
+        const double halves =
+            rmseOf(display(scaledLayers(sum[0], 1 / a)), display(scaledLayers(sum[1], 1 / b)));
+        // var(A − B) = v (1/a + 1/b) for a chunk's variance v; the whole has v / (a + b)
+        ref_noise = halves * std::sqrt(a * b) / (a + b);
+        ref_spp = (count[0] + count[1]) * o.ref_chunk_spp;
+        std::printf(
+            "  reference: %d spp (%d of %d chunks%s); its two halves differ by RMSE %.3f, so its "
+            "own noise is %.3f (8-bit display)\n",
+            ref_spp, count[0] + count[1], chunks,
+            count[0] + count[1] < chunks ? ", NOT the asked --ref-spp" : "", halves, ref_noise);
     }
     struct Variant {
         std::string name;
         Renderer::Params p;
+        int denoise = 0;  // radius of the difference layer's filter (denoiseDifference; 0: off)
         double best = 1e30, cpu = 1e30, rmse = -1, spp = 0, untouched = 0;
-        bool denoise = false;  // the difference layer filtered (denoiseDifference)
     };
-    std::vector<Variant> vs;
-    for (int adaptive = 0; adaptive < 2; ++adaptive)
-        for (int filtered = 0; filtered < 2; ++filtered) {
-            Variant v{"", base};
-            if (adaptive) {
-                v.p.spp = o.adaptive_max_spp > 0 ? o.adaptive_max_spp : 4 * o.spp;
-                v.p.adaptive_min_spp = o.min_spp;
-                v.p.adaptive_error = (float)o.error;
-                v.p.adaptive_roulette = (float)o.roulette;
-                v.name = format("adaptive %d..%d spp, error %.2g, roulette %.2g", o.min_spp,
-                                v.p.spp, o.error, o.roulette);
-            } else {
-                v.p.spp = o.spp;
-                v.name = format("uniform %d spp", o.spp);
-            }
-            if (filtered) {
-                v.p.texture_cone = (float)o.texture_cone;
-                v.name += format(", texture cone %.2g", o.texture_cone);
-            }
-            vs.push_back(v);
-        }
-    if (o.denoise) {  // the last (adaptive + filtered) setting again, its difference denoised
-        Variant v = vs.back();
-        v.name += format(", denoised (r %d)", o.denoise);
-        v.denoise = true;
-        vs.push_back(v);
+    auto adaptive = [&](Renderer::Params p, int min_spp, double error) {
+        p.spp = o.adaptive_max_spp > 0 ? o.adaptive_max_spp : 4 * o.spp;
+        p.adaptive_min_spp = min_spp;
+        p.adaptive_error = (float)error;
+        p.adaptive_roulette = (float)o.roulette;
+        return p;
+    };
+    Renderer::Params uniform = base;
+    uniform.spp = o.spp;
+    Renderer::Params cone = base;
+    cone.texture_cone = (float)o.texture_cone;
+    const std::string ad =
+        format("adaptive %d..%d, error %.2g", o.min_spp,
+               o.adaptive_max_spp > 0 ? o.adaptive_max_spp : 4 * o.spp, o.error) +
+        (o.roulette > 0 ? format(", roulette %.2g", o.roulette) : "");
+    const std::string tc = format("cone %.2g", o.texture_cone);
+    const std::string dn = o.denoise > 0 ? format(", denoise %d", o.denoise) : std::string();
+    Renderer::Params uniform_cone = uniform;
+    uniform_cone.texture_cone = (float)o.texture_cone;
+    std::vector<Variant> vs = {
+        {format("uniform %d spp", o.spp), uniform},
+        {format("uniform %d spp, ", o.spp) + tc, uniform_cone},
+    };
+    if (o.denoise > 0) vs.push_back({format("uniform %d spp", o.spp) + dn, uniform, o.denoise});
+    vs.push_back({ad, adaptive(base, o.min_spp, o.error)});
+    vs.push_back({ad + ", " + tc, adaptive(cone, o.min_spp, o.error)});
+    if (o.denoise > 0) {
+        vs.push_back({ad + dn, adaptive(base, o.min_spp, o.error), o.denoise});
+        vs.push_back({ad + ", " + tc + dn, adaptive(cone, o.min_spp, o.error), o.denoise});
     }
+    const int max_spp = o.adaptive_max_spp > 0 ? o.adaptive_max_spp : 4 * o.spp;
+    for (double e : o.errors)
+        vs.push_back({format("adaptive %d..%d, error %.2g, ", o.min_spp, max_spp, e) + tc + dn,
+                      adaptive(cone, o.min_spp, e), o.denoise});
+    for (int m : o.min_spps)
+        vs.push_back({format("adaptive %d..%d, error %.2g, ", m, max_spp, o.error) + tc + dn,
+                      adaptive(cone, m, o.error), o.denoise});
+    // vbme insert's defaults, whatever the options above say
+    {
+        Renderer::Params p = base;
+        p.spp = o.spp;
+        p.texture_cone = (float)insert_defaults.texture_cone;
+        if (insert_defaults.adaptive_min_spp > 0) {
+            p.adaptive_min_spp = std::min(insert_defaults.adaptive_min_spp, p.spp);
+            p.adaptive_error = (float)insert_defaults.adaptive_error;
+            p.adaptive_roulette = (float)insert_defaults.adaptive_roulette;
+            p.spp *= 4;
+        }
+        vs.push_back({"vbme insert's defaults", p, insert_defaults.denoise});
+    }
+    double load0[3] = {0, 0, 0}, load1[3] = {0, 0, 0};
+    getloadavg(load0, 3);
     for (int round = 0; round < o.repeat; ++round)
         for (auto& v : vs) {
             DifferentialRenderer::Params dp;
@@ -966,7 +1136,7 @@ void benchInsert(const BenchOptions& o) {
             const double c0 = cpuSeconds(RUSAGE_SELF);
             const auto t0 = std::chrono::steady_clock::now();
             const RenderStats st = DifferentialRenderer::create(dp)->render(*rs, cam, im);
-            if (v.denoise) denoiseDifference(im, bg, o.denoise);
+            if (v.denoise > 0) denoiseDifference(im, bg, v.denoise);
             const Mat disp = display(im);
             const double wall =
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -974,20 +1144,31 @@ void benchInsert(const BenchOptions& o) {
             v.best = std::min(v.best, wall);
             v.spp = double(st.paths) / bg.total();
             v.untouched = double(st.pixels_untouched) / bg.total();
-            if (!ref.empty()) {
-                Mat d = disp - ref;
-                v.rmse = std::sqrt(mean(Mat(d.mul(d)).reshape(1))[0]);
-            }
+            if (!ref.empty()) v.rmse = rmseOf(disp, ref);
         }
-    std::printf("  frame 0, fastest of %d rounds (wall; CPU seconds of this process beside):\n",
-                o.repeat);
+    getloadavg(load1, 3);
+    std::printf(
+        "  frame 0, %dx%d, %d threads, fastest of %d rounds, load average %.1f at the start and "
+        "%.1f at the end (wall s/frame; CPU s/frame of this process, all threads):\n",
+        o.width, o.height, getNumThreads(), o.repeat, load0[0], load1[0]);
     for (const auto& v : vs) {
         std::printf(
-            "  %-38s %7.2f s/frame (%6.2f s CPU, %.2fx uniform)  %6.1f spp mean, %4.1f %% "
-            "pixels untouched",
-            v.name.c_str(), v.best, v.cpu, v.best / vs[0].best, v.spp, 100 * v.untouched);
-        if (v.rmse >= 0) std::printf("  RMSE %.3f (8-bit display)", v.rmse);
+            "  %-56s %7.2f s wall %7.2f s CPU (%.2fx uniform) %6.1f spp, %4.1f %% untouched",
+            v.name.c_str(), v.best, v.cpu, v.cpu / vs[0].cpu, v.spp, 100 * v.untouched);
+        if (v.rmse >= 0)
+            std::printf("  RMSE %.3f (%.3f without the reference's noise)", v.rmse,
+                        std::sqrt(std::max(0.0, v.rmse * v.rmse - ref_noise * ref_noise)));
         std::printf("\n");
+    }
+    if (!ref.empty()) {
+        const Variant* best = nullptr;
+        for (const auto& v : vs)
+            if (v.rmse <= vs[0].rmse && (!best || v.cpu < best->cpu)) best = &v;
+        std::printf(
+            "  equal quality (RMSE <= uniform %d spp's %.3f against the %d-spp reference): "
+            "fastest is \"%s\", %.2f CPU s/frame (%.2f s wall), %.1fx less CPU than uniform\n",
+            o.spp, vs[0].rmse, ref_spp, best->name.c_str(), best->cpu, best->best,
+            vs[0].cpu / best->cpu);
     }
 #ifdef VBME_BENCH_RENDER
     if (!PeerScene::exe().empty()) {
@@ -1027,9 +1208,29 @@ void setupBench(CLI::App& app) {
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
     app.add_option("--ref-spp", o->ref_spp,
-                   "insert: samples per pixel of the reference (0: no reference, no RMSE)")
+                   "insert: samples per pixel of the reference, rendered in chunks of "
+                   "--ref-chunk-spp with seeds of their own and cached (0: no reference, no "
+                   "RMSE)")
         ->check(CLI::Range(0, 1000000))
         ->capture_default_str();
+    app.add_option("--ref-chunk-spp", o->ref_chunk_spp,
+                   "insert: samples per pixel of one cached chunk of the reference")
+        ->check(CLI::Range(1, 1000000))
+        ->capture_default_str();
+    app.add_flag("--ref-only", o->ref_only,
+                 "insert: only render the reference's missing chunks (e.g. in the background, "
+                 "niced), then stop");
+    app.add_flag("--ref-cached-only", o->ref_cached_only,
+                 "insert: make the reference of the chunks already cached (at least 2; the spp "
+                 "it reaches is printed), render none");
+    app.add_option("--errors", o->errors,
+                   "insert: more variants: adaptive + texture cone + denoise at these adaptive "
+                   "targets (comma-separated)")
+        ->delimiter(',');
+    app.add_option("--min-spps", o->min_spps,
+                   "insert: more variants: adaptive + texture cone + denoise at these minimum "
+                   "spp (comma-separated)")
+        ->delimiter(',');
     app.add_option("--repeat", o->repeat,
                    "track, insert, render-peer: interleaved rounds (the fastest / median counts)")
         ->check(CLI::Range(1, 100))
@@ -1059,12 +1260,17 @@ void setupBench(CLI::App& app) {
         ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
     app.add_option("--denoise", o->denoise,
-                   "insert: experiment: also the adaptive + filtered variant with its difference "
-                   "layer denoised by a joint bilateral filter of this radius (0: not)")
+                   "insert: radius of the denoised variants' joint bilateral filter of the "
+                   "difference layer (vbme insert --denoise; 0: no denoised variants); denoise: "
+                   "the radius measured")
         ->check(CLI::Range(0, 16))
         ->capture_default_str();
+    app.add_flag("--moving", o->moving,
+                 "denoise: a hand-held camera walking at the demo's speed (0.6 m in 24 frames) "
+                 "instead of a static one");
     app.add_option("--cache", o->cache,
-                   "insert: folder of the cached reference (default ./vbme-bench-cache)");
+                   "insert: folder of the cached reference (default: vbme-bench-cache in the build "
+                   "folder, else in the current folder)");
     app.add_option("--width", o->width, "Frame width")
         ->check(CLI::Range(64, 8192))
         ->capture_default_str();
