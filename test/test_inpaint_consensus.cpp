@@ -179,10 +179,35 @@ void checkClip(const std::string& name) {
         "[ %s ] PSNR in shadow region: consensus (shadows removed) %.2f dB, input (kept) "
         "%.2f dB, temporal median %.2f dB, previous nearest-frame fill %.2f dB\n",
         name.c_str(), sOurs, sIn, sMed, psnrIn(nearest, c.clean, c.shadow));
+    // Around the hole, outside the object's shadow: the zone where the shadow is sought, less
+    // the hole and the oracle's shadow region grown by 7 px (more than the 5 px the removal
+    // grows and feathers), less the clean plate's black unrendered area. Nothing there is the
+    // object's shadow, so the fill should keep the input.
+    const double reach = ConsensusInpainter::Params().shadow_reach;
+    std::vector<Mat> rim(c.frames.size());
+    for (size_t t = 0; t < c.frames.size(); ++t) {
+        Mat inv, dist, grown, v;
+        bitwise_not(c.holes[t], inv);
+        distanceTransform(inv, dist, DIST_L2, 3);
+        const double r = std::sqrt(countNonZero(c.holes[t]) / CV_PI);
+        dilate(c.shadow[t], grown, getStructuringElement(MORPH_ELLIPSE, Size(15, 15)));
+        cvtColor(c.clean[t], v, COLOR_BGR2GRAY);
+        rim[t] = (dist <= reach * r + 1) & (c.holes[t] == 0) & (grown == 0) & (v > 0);
+    }
+    const double zOurs = psnrIn(ours, c.clean, rim), zIn = psnrIn(c.frames, c.clean, rim);
+    std::printf(
+        "[ %s ] PSNR in the zone outside hole and grown shadow: consensus %.2f dB, input %.2f "
+        "dB\n",
+        name.c_str(), zOurs, zIn);
     std::printf("[ %s ] per frame in holes (consensus/median):", name.c_str());
     for (size_t t = 0; t < ours.size(); ++t)
         std::printf(" %.1f/%.1f", psnrIn({ours[t]}, {c.clean[t]}, {c.holes[t]}),
                     psnrIn({median[t]}, {c.clean[t]}, {c.holes[t]}));
+    std::printf("\n[ %s ] per frame in the zone outside hole and grown shadow (consensus/input):",
+                name.c_str());
+    for (size_t t = 0; t < ours.size(); ++t)
+        std::printf(" %.1f/%.1f", psnrIn({ours[t]}, {c.clean[t]}, {rim[t]}),
+                    psnrIn({c.frames[t]}, {c.clean[t]}, {rim[t]}));
     std::printf("\n");
     if (std::getenv("VBME_KEEP_TEST_FILES")) {  // input | vbme | clean | median | nearest
         vbme_test::ScratchDir dir;
@@ -197,8 +222,10 @@ void checkClip(const std::string& name) {
     EXPECT_GT(hOurs, hPrev);
     EXPECT_GE(sOurs, 30.0);
     EXPECT_GT(sOurs, sIn + 3.0) << "the shadow is removed, not left";
+    // Measured: static 52.40 / 52.40 dB; pan 50.31 / 51.53 dB (frame 18 keeps a false shadow of
+    // another cause, 43.1 dB); before the chromaticity test the pan clip measured 33.96 dB.
+    EXPECT_GE(zOurs, zIn - 2.0) << "nothing but the object's shadow is removed";
     // Outside the hole only the object's zone (where its shadow is sought) may change.
-    const double reach = ConsensusInpainter::Params().shadow_reach;
     for (size_t t = 0; t < ours.size(); ++t) {
         Mat inv, dist;
         bitwise_not(c.holes[t], inv);
