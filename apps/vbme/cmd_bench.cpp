@@ -63,6 +63,8 @@ struct BenchOptions {
                           // vbme-bench-cache, else ./vbme-bench-cache)
     bool moving = false;  // denoise: a hand-held (moving) camera instead of a static one
     std::string clip, methods = "keyframes,full";  // track-camera
+    std::string colmap_database;  // track-camera: keyframes' COLMAP database to replay
+    int seed = 0;                 // track-camera: COLMAP's first random seed
 };
 
 // CPU seconds of this process (self) and of its waited-for children.
@@ -599,12 +601,17 @@ void benchTrackCamera(const BenchOptions& o) {
             cpu_sum += kv.second;
         }
         std::printf("  stages (CPU s/frame):%s  = %.3f CPU s/frame\n", st.c_str(), cpu_sum / n);
-        if (r.ba_points > 0)
+        if (r.ba_points > 0) {
+            std::string moves;
+            for (double v : r.ba_pass_moves)
+                moves += format(" %.1f", 1000 * v);
             std::printf(
                 "  joint adjustment%s: %d points, %d observations, RMS %.3f px (worst frame %.3f "
-                "px), %.1f %% of the points on the box's faces\n",
+                "px), %.1f %% of the points on the box's faces; %zu pass(es), each moving a "
+                "frame by at most (mm):%s\n",
                 r.ba_applied ? "" : " (not applied)", r.ba_points, r.ba_observations, r.ba_rms,
-                r.ba_worst_frame_rms, 100 * r.ba_on_face);
+                r.ba_worst_frame_rms, 100 * r.ba_on_face, r.ba_pass_moves.size(), moves.c_str());
+        }
         std::string spreads;
         for (double v : r.mapper_scale_spreads)
             spreads += format(" %.4f", v);
@@ -637,6 +644,12 @@ void benchTrackCamera(const BenchOptions& o) {
         return all;
     };
     const fs::path work = fs::temp_directory_path() / "vbme-bench-track-camera-work";
+    // The database to replay is copied first: it may lie in the work folder emptied below.
+    const fs::path replay_db = fs::temp_directory_path() / "vbme-bench-track-camera-replay.db";
+    if (!o.colmap_database.empty()) {
+        fs::copy_file(o.colmap_database, replay_db, fs::copy_options::overwrite_existing);
+        std::printf("track-camera: replaying the COLMAP database %s\n", o.colmap_database.c_str());
+    }
     double full_spf = 0, key_spf = 0, full_cpu = 0, key_cpu = 0;
     Accuracy full_acc, key_acc;
     for (const std::string method : {"keyframes", "full"}) {
@@ -645,6 +658,9 @@ void benchTrackCamera(const BenchOptions& o) {
         CameraTrackingOptions opt;
         opt.method =
             method == "full" ? CameraTrackingOptions::FULL : CameraTrackingOptions::KEYFRAMES;
+        opt.colmap.random_seed = o.seed;
+        if (method == "keyframes" && !o.colmap_database.empty())
+            opt.colmap.database = replay_db.string();
         CameraTrackingReport r;
         const double cpu0 = (cpuSeconds(RUSAGE_SELF) + cpuSeconds(RUSAGE_CHILDREN));
         const CameraPath path =
@@ -1290,6 +1306,17 @@ void setupBench(CLI::App& app) {
     app.add_option("--methods", o->methods,
                    "track-camera: any of keyframes, full, stride (as many keyframes as the "
                    "keyframe method chose, at a fixed stride; needs keyframes), comma-separated")
+        ->capture_default_str();
+    app.add_option("--colmap-database", o->colmap_database,
+                   "track-camera: a COLMAP database left by an earlier keyframe run on the same "
+                   "clip (WORK/database.db): the keyframe method maps it instead of extracting "
+                   "and matching, which replays that run (COLMAP's matching is not repeatable, "
+                   "its mapper is); its later steps (mapping again, COLMAP again) run as usual")
+        ->check(CLI::ExistingFile);
+    app.add_option("--seed", o->seed,
+                   "track-camera: COLMAP's random seed (the mapper's first run; retries add 1, 2, "
+                   "...)")
+        ->check(CLI::Range(0, 1000000))
         ->capture_default_str();
     app.add_option("--threads", o->threads,
                    "OpenCV threads for track (differential and insert render on all cores)")

@@ -126,17 +126,17 @@ void runTrackCamera(const TrackCameraOptions& o) {
             fs << "method" << o.method << "frames" << r.frames << "keyframes" << r.keyframes
                << "registered" << r.registered << "pnp" << r.pnp << "interpolated" << r.interpolated
                << "pnp_rms_px" << r.pnp_rms << "pnp_mean_inliers" << r.pnp_inliers
-               << "joint_adjustment_applied" << (int)r.ba_applied << "joint_rms_px" << r.ba_rms
-               << "joint_worst_frame_rms_px" << r.ba_worst_frame_rms << "joint_points"
-               << r.ba_points << "joint_observations" << r.ba_observations
-               << "joint_points_on_box_faces" << r.ba_on_face << "colmap_models" << r.models
-               << "reprojection_rms_px" << r.reprojection_rms << "refined_reprojection_rms_px"
-               << r.refined_rms << "points_on_box_faces" << r.plane_points << "scale_m_per_unit"
-               << r.scale.scale << "scale_relative_spread" << r.scale.spread << "scale_points_used"
-               << r.scale.used << "scale_points_total" << r.scale.total << "face_distance_m"
-               << r.face_distance << "confident" << (int)r.confident << "doubt" << r.doubt
-               << "seconds" << r.seconds << "seconds_per_frame"
-               << (r.frames ? r.seconds / r.frames : 0.0);
+               << "joint_adjustment_applied" << (int)r.ba_applied << "joint_pass_moves_m"
+               << r.ba_pass_moves << "joint_rms_px" << r.ba_rms << "joint_worst_frame_rms_px"
+               << r.ba_worst_frame_rms << "joint_points" << r.ba_points << "joint_observations"
+               << r.ba_observations << "joint_points_on_box_faces" << r.ba_on_face
+               << "colmap_models" << r.models << "reprojection_rms_px" << r.reprojection_rms
+               << "refined_reprojection_rms_px" << r.refined_rms << "points_on_box_faces"
+               << r.plane_points << "scale_m_per_unit" << r.scale.scale << "scale_relative_spread"
+               << r.scale.spread << "scale_points_used" << r.scale.used << "scale_points_total"
+               << r.scale.total << "face_distance_m" << r.face_distance << "confident"
+               << (int)r.confident << "doubt" << r.doubt << "seconds" << r.seconds
+               << "seconds_per_frame" << (r.frames ? r.seconds / r.frames : 0.0);
             auto stageMap = [&](const char* name,
                                 const std::vector<std::pair<std::string, double>>& stages) {
                 // A stage run more than once (COLMAP again on a doubtful model) is summed: a map

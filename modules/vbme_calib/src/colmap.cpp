@@ -375,6 +375,19 @@ std::vector<ColmapModel> runColmapSfM(
         a.insert(a.end(), extra.begin(), extra.end());
         return a;
     };
+    if (!o.database.empty()) {
+        // An earlier run's features and matches, mapped again (replays that run's model).
+        fs::copy_file(o.database, db, fs::copy_options::overwrite_existing, ec);
+        if (ec)
+            CV_Error(Error::StsError,
+                     "cannot copy the COLMAP database '" + o.database + "': " + ec.message());
+        std::vector<ColmapModel> models = mapAndConvert(image_dir, work_dir, "sparse", "sparse_txt",
+                                                        o, step_seconds, step_cpu_seconds);
+        if (models.empty())
+            CV_Error(Error::StsError, "COLMAP reconstructed nothing from the database '" +
+                                          o.database + "'; its output is in " + log);
+        return models;
+    }
     timed("feature_extractor",
           with({"--database_path", db, "--image_path", image_dir, "--ImageReader.camera_model",
                 "PINHOLE", "--ImageReader.single_camera", "1", "--ImageReader.camera_params",

@@ -37,6 +37,7 @@ void ColmapOptions::read(const FileNode& fn) {
     in("timeout", timeout);
     in("min_model_size", min_model_size);
     in("abs_pose_min_num_inliers", abs_pose_min_num_inliers);
+    in("database", database);
     in.finish();
     check();
 }
@@ -46,6 +47,7 @@ void ColmapOptions::write(FileStorage& fs) const {
        << "random_seed" << random_seed << "overlap" << overlap << "vocab_tree" << vocab_tree
        << "max_num_features" << max_num_features << "timeout" << timeout << "min_model_size"
        << min_model_size << "abs_pose_min_num_inliers" << abs_pose_min_num_inliers;
+    if (!database.empty()) fs << "database" << database;  // files without it stay as they were
 }
 
 void ColmapOptions::check() const {

@@ -152,6 +152,10 @@ struct CV_EXPORTS CameraTrackingReport {
     /** Whether the joint adjustment's poses were used: not when it moved a frame more than
     0.25 m or 5 degrees from its SfM/PnP pose (the adjustment came apart). */
     bool ba_applied = false;
+    /** How far (metres) each pass of the joint adjustment moved the frame it moved most: the
+    adjustment is set up again at its own poses and repeated while a pass moves a frame by more
+    than 5 mm, at most 3 passes (one entry per pass run). */
+    std::vector<double> ba_pass_moves;
     /** Median distance (metres) of the track's 3D points to the nearest face of the room box:
     the joint adjustment's points (KEYFRAMES, when applied), else the aligned and refined COLMAP
     points. A track that does not fit the annotated room has it larger. */
@@ -235,7 +239,9 @@ pose (CameraPath::INTERPOLATED). Then, with options.global_refine, every SfM and
 adjusted jointly (Ceres, intrinsics fixed, frame 0 held): the corners the keyframe choice tracked
 through the whole video and COLMAP's own keyframe observations are triangulated at the current
 poses (or placed on the room box where their rays are nearly parallel), points near a face of the
-box are tied to it, observations more than 2 px off are dropped; the adjusted poses replace the
+box are tied to it, observations more than 2 px off are dropped, and this is set up again at the
+adjusted poses and repeated while a pass moves a frame by more than 5 mm (at most 3 passes,
+report.ba_pass_moves); the adjusted poses replace the
 SfM and PnP ones unless a frame moved more than 0.25 m or 5 degrees (report.ba_applied). This
 makes the track depend far less on COLMAP's keyframe model, which varies between runs. A fresh
 COLMAP model whose frame-0 depth ratios spread more than options.max_scale_spread is mapped again

@@ -92,6 +92,12 @@ struct CV_EXPORTS ColmapOptions {
     int timeout = 0;          //!< seconds a step may run before it is stopped as hung (0: no limit)
     int min_model_size = 10;  //!< mapper: smaller models are discarded
     int abs_pose_min_num_inliers = 30;  //!< mapper: 2D-3D inliers needed to register an image
+    /** A COLMAP database of the same images from an earlier run (its features and matches):
+    runColmapSfM() maps a copy of it instead of extracting and matching. COLMAP's matching is not
+    repeatable from run to run, its mapper is for a given database and seed, so this replays a
+    run's model exactly (benchmarks, diagnosis). Empty (the default): extract and match. Written
+    by write() only when set. */
+    std::string database;
 
     /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
     key or a value check() refuses is an error. */
@@ -133,6 +139,7 @@ CV_EXPORTS std::vector<ColmapModel> rerunColmapMapper(
     const ColmapOptions& options = ColmapOptions(),
     std::vector<std::pair<std::string, double>>* step_seconds = nullptr,
     std::vector<std::pair<std::string, double>>* step_cpu_seconds = nullptr);
+
 /** @} */
 
 //! @}
