@@ -46,6 +46,7 @@ ColmapOptions changedColmap() {
     o.timeout = 600;
     o.min_model_size = 5;
     o.abs_pose_min_num_inliers = 20;
+    o.database = "run1/database.db";
     return o;
 }
 
@@ -126,6 +127,7 @@ TEST(CalibParams, CameraTrackingOptions) {
     o.max_scale_spread = 0.03;
     o.max_face_distance = 0.004;
     o.mapper_retries = 1;
+    o.joint_passes = 2;
     o.colmap = changedColmap();
     expectRoundTrip(o);
     expectUnknownKeyRefused<CameraTrackingOptions>("pnp_max_rms");
@@ -138,4 +140,7 @@ TEST(CalibParams, CameraTrackingOptions) {
     bad = CameraTrackingOptions();
     bad.mapper_retries = -1;
     expectRejected(bad, "mapper_retries");
+    bad = CameraTrackingOptions();
+    bad.joint_passes = 0;
+    expectRejected(bad, "joint_passes");
 }

@@ -126,14 +126,26 @@ TEST(CalibTracking, KeyframesAndPnPOnBlenderClip) {
     const int n = (int)truth.frames.size();
     vbme_test::ScratchDir tmp;
     CameraTrackingOptions opt;
+    // COLMAP's feature matching is not repeatable from run to run and about 1 run in 5 gave a
+    // distorted keyframe model (doc/vbme_calib_tracking.md). The keyframes' features and matches
+    // of such a run (a sweep's run 44: confident, yet ATE 0.61 cm, worst 1.00 cm, 0.186 degrees
+    // before the joint adjustment was repeated) are replayed: COLMAP's mapper is repeatable for a
+    // database and seed, so this test sees that poor case every time (descriptors and raw
+    // matches dropped from the file: the mapper reads neither).
+    opt.colmap.database = (data / "poor_keyframe_matches.db").string();
     CameraTrackingReport rep;
     const auto t0 = std::chrono::steady_clock::now();
     const CameraPath path = trackCameraVideo(clip, scene, tmp / "work", opt, &rep);
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     ASSERT_EQ((int)path.frames.size(), n);
-    // The same keyframes (COLMAP's run reused) without the joint adjustment (PnP alone), and with
-    // the other frames interpolated instead (the naive baseline).
+    // The same COLMAP model (reused) with one pass of the joint adjustment (as before the fix),
+    // without the joint adjustment (PnP alone), and with the other frames interpolated instead
+    // (the naive baseline).
+    opt.joint_passes = 1;
+    CameraTrackingReport rep_one;
+    const CameraPath one_pass = trackCameraVideo(clip, scene, tmp / "work", opt, &rep_one);
+    ASSERT_EQ((int)one_pass.frames.size(), n);
     opt.global_refine = false;
     CameraTrackingReport rep_pnp;
     const CameraPath pnp_only = trackCameraVideo(clip, scene, tmp / "work", opt, &rep_pnp);
@@ -150,12 +162,21 @@ TEST(CalibTracking, KeyframesAndPnPOnBlenderClip) {
         "%d frames, %d keyframes: %d SfM, %d PnP (inlier RMS %.3f px, %.0f inliers), %d "
         "interpolated; %.1f s = %.2f s/frame (stages:%s)\n"
         "joint adjustment%s: %d points, %d observations, RMS %.3f px, worst frame %.3f px, "
-        "%.3f of the points on the box's faces (median distance %.2f mm)\n"
+        "%.3f of the points on the box's faces (median distance %.2f mm); passes moved a frame "
+        "by at most (mm):%s\n"
         "confidence: scale spread %.4f (mapper runs:%s), %s\n",
         n, rep.keyframes, rep.registered, rep.pnp, rep.pnp_rms, rep.pnp_inliers, rep.interpolated,
         seconds, seconds / n, stages.c_str(), rep.ba_applied ? "" : " (NOT applied)", rep.ba_points,
         rep.ba_observations, rep.ba_rms, rep.ba_worst_frame_rms, rep.ba_on_face,
-        1000 * rep.ba_face_distance, rep.scale.spread,
+        1000 * rep.ba_face_distance,
+        [&] {
+            std::string t;
+            for (double v : rep.ba_pass_moves)
+                t += format(" %.1f", 1000 * v);
+            return t;
+        }()
+            .c_str(),
+        rep.scale.spread,
         [&] {
             std::string t;
             for (double v : rep.mapper_scale_spreads)
@@ -164,12 +185,14 @@ TEST(CalibTracking, KeyframesAndPnPOnBlenderClip) {
         }()
             .c_str(),
         rep.confident ? "confident" : ("NOT confident: " + rep.doubt).c_str());
-    const TrackErrors e = trackErrors(path, truth), e_pnp = trackErrors(pnp_only, truth);
+    const TrackErrors e = trackErrors(path, truth), e_pnp = trackErrors(pnp_only, truth),
+                      e_one = trackErrors(one_pass, truth);
     std::vector<int> pnp_frames;
     for (int i = 0; i < n; ++i)
         if (path.frames[i].source == CameraPath::PNP) pnp_frames.push_back(i);
     const TrackErrors e_interp = trackErrors(interp, truth, pnp_frames);
     printErrors("keyframes + PnP + joint adjustment:", e);
+    printErrors("the same, one pass of the joint adjustment:", e_one);
     printErrors("keyframes + PnP alone (the same COLMAP run):", e_pnp);
     printErrors("the PnP frames interpolated between the same keyframes instead:", e_interp);
 
@@ -189,27 +212,19 @@ TEST(CalibTracking, KeyframesAndPnPOnBlenderClip) {
     EXPECT_LE(rep.ba_rms, 0.6);
     EXPECT_GE(rep.ba_on_face, 0.74);         // measured 0.783-0.793 in seven runs
     EXPECT_LE(rep.ba_face_distance, 0.001);  // measured 0.43-0.47 mm
-    // Nothing the pipeline sees speaks against the track; a doubtful COLMAP model (scale spread
-    // 0.021-0.024 in 5 of 40 runs, tracks 0.55 to 58 cm off, against 0.016-0.017) was mapped
-    // again and the better model kept.
+    // The replayed matches give the distorted model (scale spread 0.0217 at seeds 0 and 1,
+    // against 0.016-0.0175 for good models): the case under test. Mapping again kept a better one.
     ASSERT_FALSE(rep.mapper_scale_spreads.empty());
+    EXPECT_GT(rep.mapper_scale_spreads.front(), opt.max_scale_spread);
     EXPECT_LE(rep.scale.spread, rep.mapper_scale_spreads.front());
-    // Accuracy over every frame. A confident track meets the aims (ATE 0.5 cm, no frame
-    // worse than 1 cm or 0.2 degrees): runs from a model that was not doubted gave ATE
-    // 0.31-0.40 cm, worst 0.73-0.92 cm, worst rotation 0.106-0.136 degrees
-    // (doc/vbme_calib_tracking.md). Doubted ones, before they were mapped again, gave 0.55-0.66
-    // cm (worst 1.07-1.16 cm) and once 58 cm; after the retries 1 run in 20 stayed doubted
-    // (0.63 cm, worst 1.12 cm) and said so. COLMAP does not repeat itself under load, so such a
-    // run is accepted here only if it says it is not confident and stays within the earlier
-    // bounds (0.75 cm, 1.3 cm, 0.25 degrees); a confident track outside the aims fails.
-    if (!rep.confident)
-        std::printf(
-            "[ measured ] this run's track is NOT confident (%s): the aims are not "
-            "asserted, the earlier bounds are\n",
-            rep.doubt.c_str());
-    EXPECT_LE(e.ate[3], rep.confident ? 0.005 : 0.0075);
-    EXPECT_LE(e.worst[3], rep.confident ? 0.010 : 0.013);
-    EXPECT_LE(e.worst_rot[3], rep.confident ? 0.2 : 0.25);
+    // Accuracy over every frame: the aims (ATE 0.5 cm, no frame worse than 1 cm or 0.2
+    // degrees). Measured 0.30 cm, worst 0.82 cm, 0.131 degrees in 3 passes; one pass 0.61 cm,
+    // worst 1.00 cm, 0.186 degrees.
+    EXPECT_LE(e.ate[3], 0.005);
+    EXPECT_LE(e.worst[3], 0.010);
+    EXPECT_LE(e.worst_rot[3], 0.2);
+    EXPECT_GE(rep.ba_pass_moves.size(), 2u);
+    EXPECT_LT(e.ate[3], e_one.ate[3] - 0.002);
     // No worse than PnP alone on the same model (which follows COLMAP's keyframe model), and far
     // better in rotation than interpolation.
     EXPECT_LE(e.ate[3], e_pnp.ate[3] + 0.001);

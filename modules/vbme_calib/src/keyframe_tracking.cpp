@@ -256,9 +256,8 @@ const double kMaxAdjustMove = 0.25, kMaxAdjustTurn = 5 * CV_PI / 180;
 // (COLMAP's observations: 1 px).
 const float kCornerSigma = 3;
 // The joint adjustment is set up again at its own poses and repeated while a pass moves a frame by
-// more than this (metres), at most kMaxPasses passes in all.
+// more than this (metres), at most CameraTrackingOptions::joint_passes passes in all.
 const double kRepeatMove = 0.005;
-const int kMaxPasses = 3;
 
 std::string frameName(int i) {
     return format("frame_%05d.png", i);
@@ -608,10 +607,10 @@ CameraPath trackCameraKeyframes(InputArrayOfArrays gray_, const Scene& frame0,
         // poses it starts from. From a distorted COLMAP model (PnP alone 2.8 cm off on the
         // Blender clip) one pass stopped at 0.66 cm, still in that model's basin; set up again at
         // the adjusted poses, three passes reached 0.26 cm. So the adjustment is repeated while a
-        // pass moves a frame by more than kRepeatMove, up to kMaxPasses passes.
+        // pass moves a frame by more than kRepeatMove, up to opt.joint_passes passes.
         const CameraPath before = path;
         detail::GlobalRefineSummary g;
-        for (int pass = 0; pass < kMaxPasses; ++pass) {
+        for (int pass = 0; pass < opt.joint_passes; ++pass) {
             const CameraPath start = path;
             g = detail::refineAllFrames(tracks, frame0, opt.plane_tolerance, have, path);
             double move = 0;

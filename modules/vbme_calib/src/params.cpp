@@ -47,7 +47,7 @@ void ColmapOptions::write(FileStorage& fs) const {
        << "random_seed" << random_seed << "overlap" << overlap << "vocab_tree" << vocab_tree
        << "max_num_features" << max_num_features << "timeout" << timeout << "min_model_size"
        << min_model_size << "abs_pose_min_num_inliers" << abs_pose_min_num_inliers;
-    if (!database.empty()) fs << "database" << database;  // files without it stay as they were
+    fs << "database" << database;
 }
 
 void ColmapOptions::check() const {
@@ -120,6 +120,7 @@ void CameraTrackingOptions::read(const FileNode& fn) {
     in("max_scale_spread", max_scale_spread);
     in("max_face_distance", max_face_distance);
     in("mapper_retries", mapper_retries);
+    in("joint_passes", joint_passes);
     in("colmap", colmap);
     in.finish();
     check();
@@ -133,7 +134,7 @@ void CameraTrackingOptions::write(FileStorage& fs) const {
        << "scale_tolerance" << scale_tolerance << "stride" << stride << "refine" << (int)refine
        << "plane_tolerance" << plane_tolerance << "smooth_sigma" << smooth_sigma
        << "max_scale_spread" << max_scale_spread << "max_face_distance" << max_face_distance
-       << "mapper_retries" << mapper_retries;
+       << "mapper_retries" << mapper_retries << "joint_passes" << joint_passes;
     writeMap(fs, "colmap", colmap);
 }
 
@@ -151,6 +152,7 @@ void CameraTrackingOptions::check() const {
     checkParam(max_scale_spread > 0, w, "max_scale_spread", max_scale_spread, "> 0");
     checkParam(max_face_distance > 0, w, "max_face_distance", max_face_distance, "> 0 m");
     checkParam(mapper_retries >= 0, w, "mapper_retries", mapper_retries, ">= 0");
+    checkParam(joint_passes >= 1, w, "joint_passes", joint_passes, ">= 1");
     colmap.check();
 }
 

@@ -108,6 +108,11 @@ struct CV_EXPORTS CameraTrackingOptions {
     and the model with the smallest scale spread is kept; if it is still doubtful, COLMAP runs
     once more from new features and matches (0: none of this). */
     int mapper_retries = 2;
+    /** KEYFRAMES with global_refine: at most this many passes of the joint adjustment, each set up
+    again (points triangulated, tied to the box's faces, gated) at the poses the last one left;
+    passes stop once one moves no frame by more than 5 mm. 1: one pass (before issue 22's fix of
+    the poor runs: from a distorted COLMAP model it stayed in that model's basin). */
+    int joint_passes = 3;
     ColmapOptions colmap;  //!< how COLMAP runs
 
     /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
@@ -154,7 +159,7 @@ struct CV_EXPORTS CameraTrackingReport {
     bool ba_applied = false;
     /** How far (metres) each pass of the joint adjustment moved the frame it moved most: the
     adjustment is set up again at its own poses and repeated while a pass moves a frame by more
-    than 5 mm, at most 3 passes (one entry per pass run). */
+    than 5 mm, at most CameraTrackingOptions::joint_passes passes (one entry per pass run). */
     std::vector<double> ba_pass_moves;
     /** Median distance (metres) of the track's 3D points to the nearest face of the room box:
     the joint adjustment's points (KEYFRAMES, when applied), else the aligned and refined COLMAP
@@ -240,8 +245,8 @@ adjusted jointly (Ceres, intrinsics fixed, frame 0 held): the corners the keyfra
 through the whole video and COLMAP's own keyframe observations are triangulated at the current
 poses (or placed on the room box where their rays are nearly parallel), points near a face of the
 box are tied to it, observations more than 2 px off are dropped, and this is set up again at the
-adjusted poses and repeated while a pass moves a frame by more than 5 mm (at most 3 passes,
-report.ba_pass_moves); the adjusted poses replace the
+adjusted poses and repeated while a pass moves a frame by more than 5 mm (at most
+options.joint_passes passes, report.ba_pass_moves); the adjusted poses replace the
 SfM and PnP ones unless a frame moved more than 0.25 m or 5 degrees (report.ba_applied). This
 makes the track depend far less on COLMAP's keyframe model, which varies between runs. A fresh
 COLMAP model whose frame-0 depth ratios spread more than options.max_scale_spread is mapped again

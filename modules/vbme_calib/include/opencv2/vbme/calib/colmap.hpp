@@ -95,8 +95,7 @@ struct CV_EXPORTS ColmapOptions {
     /** A COLMAP database of the same images from an earlier run (its features and matches):
     runColmapSfM() maps a copy of it instead of extracting and matching. COLMAP's matching is not
     repeatable from run to run, its mapper is for a given database and seed, so this replays a
-    run's model exactly (benchmarks, diagnosis). Empty (the default): extract and match. Written
-    by write() only when set. */
+    run's model exactly (benchmarks, diagnosis). Empty (the default): extract and match. */
     std::string database;
 
     /** @brief Reads the fields present in the map @p fn (others keep their value); an unknown
