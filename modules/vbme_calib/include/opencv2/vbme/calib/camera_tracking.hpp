@@ -150,9 +150,10 @@ struct CV_EXPORTS CameraTrackingReport {
     with one 5 % too long); a room with much furniture has it lower. */
     double ba_on_face = 0;
     /** Median distance (metres) of the joint adjustment's points to the nearest face of the room
-    box at the end: a confidence of the track in the annotated room, which rises when the track
-    does not fit the room (Blender clip: 0.43-0.44 mm with the true focal length, 2.72-4.22 mm
-    with one 5 % too long, whose track is 5.2-5.4 cm off). */
+    box after its first pass (later passes fit a wrong room better too): a confidence of the track
+    in the annotated room, which rises when the track does not fit the room (Blender clip: 0.43-0.44
+    mm with the true focal length, 2.72-4.22 mm with one 5 % too long, whose track is 5.2-5.4 cm
+    off). */
     double ba_face_distance = 0;
     /** Whether the joint adjustment's poses were used: not when it moved a frame more than
     0.25 m or 5 degrees from its SfM/PnP pose (the adjustment came apart). */
