@@ -109,8 +109,9 @@ struct CV_EXPORTS CameraTrackingOptions {
     once more from new features and matches (0: none of this). */
     int mapper_retries = 2;
     /** KEYFRAMES with global_refine: at most this many passes of the joint adjustment, each set up
-    again (points triangulated, tied to the box's faces, gated) at the poses the last one left;
-    passes stop once one moves no frame by more than 5 mm. 1: one pass (before issue 22's fix of
+    again (points triangulated, tied to the box's faces, gated) at the poses the last one left:
+    a second pass when the first moved a frame by more than 15 mm, further ones while a pass moves
+    one by more than 5 mm. 1: one pass (before issue 22's fix of
     the poor runs: from a distorted COLMAP model it stayed in that model's basin). */
     int joint_passes = 3;
     ColmapOptions colmap;  //!< how COLMAP runs
@@ -159,8 +160,9 @@ struct CV_EXPORTS CameraTrackingReport {
     0.25 m or 5 degrees from its SfM/PnP pose (the adjustment came apart). */
     bool ba_applied = false;
     /** How far (metres) each pass of the joint adjustment moved the frame it moved most: the
-    adjustment is set up again at its own poses and repeated while a pass moves a frame by more
-    than 5 mm, at most CameraTrackingOptions::joint_passes passes (one entry per pass run). */
+    adjustment is set up again at its own poses and repeated when its first pass moved a frame by
+    more than 15 mm, then while a pass moves one by more than 5 mm, at most
+    CameraTrackingOptions::joint_passes passes (one entry per pass run). */
     std::vector<double> ba_pass_moves;
     /** Median distance (metres) of the track's 3D points to the nearest face of the room box:
     the joint adjustment's points (KEYFRAMES, when applied), else the aligned and refined COLMAP
@@ -246,17 +248,18 @@ adjusted jointly (Ceres, intrinsics fixed, frame 0 held): the corners the keyfra
 through the whole video and COLMAP's own keyframe observations are triangulated at the current
 poses (or placed on the room box where their rays are nearly parallel), points near a face of the
 box are tied to it, observations more than 2 px off are dropped, and this is set up again at the
-adjusted poses and repeated while a pass moves a frame by more than 5 mm (at most
-options.joint_passes passes, report.ba_pass_moves); the adjusted poses replace the
-SfM and PnP ones unless a frame moved more than 0.25 m or 5 degrees (report.ba_applied). This
-makes the track depend far less on COLMAP's keyframe model, which varies between runs. A fresh
-COLMAP model whose frame-0 depth ratios spread more than options.max_scale_spread is mapped again
-(rerunColmapMapper(), other seeds, up to options.mapper_retries times) and the model with the
-smallest spread kept; if it stays doubtful, COLMAP runs once more on the same keyframes (new
-features and matches) and its model is kept if its spread is smaller; report.confident and
-report.doubt say whether the final track is doubtful (CameraTrackingOptions::max_scale_spread,
-max_face_distance, the adjustment coming apart). Resumable: a finished COLMAP run on the same
-keyframes, settings and intrinsics found in @p work_dir is reused.
+adjusted poses and repeated when the first pass moved a frame by more than 15 mm, then while a
+pass moves one by more than 5 mm (at most options.joint_passes passes, report.ba_pass_moves); the
+adjusted poses replace the SfM and PnP ones unless a frame moved more than 0.25 m or 5 degrees
+(report.ba_applied). This makes the track depend far less on COLMAP's keyframe model, which varies
+between runs. A fresh COLMAP model whose frame-0 depth ratios spread more than
+options.max_scale_spread is mapped again (rerunColmapMapper(), other seeds, up to
+options.mapper_retries times) and the model with the smallest spread kept; if it stays doubtful,
+COLMAP runs once more on the same keyframes (new features and matches) and its model is kept if its
+spread is smaller; report.confident and report.doubt say whether the final track is doubtful
+(CameraTrackingOptions::max_scale_spread, max_face_distance, the adjustment coming apart).
+Resumable: a finished COLMAP run on the same keyframes, settings and intrinsics found in @p work_dir
+is reused.
 @param gray the video's frames, 8-bit single channel, of frame0.image_size. */
 CV_EXPORTS CameraPath
 trackCameraKeyframes(InputArrayOfArrays gray, const Scene& frame0, const std::string& work_dir,
