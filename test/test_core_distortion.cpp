@@ -2,6 +2,7 @@
 // Camera::k1, one-coefficient radial lens distortion: the point maps against OpenCV's own
 // projectPoints / undistortPoints, the image warps, and k1 in the scene and camera-path files.
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -97,6 +98,77 @@ TEST(CoreDistortion, ImageWarpsMatchOpenCVAndRoundTrip) {
     Mat w = img.clone();
     undistortImageK1(w, w, c);
     EXPECT_EQ(norm(w, und, NORM_INF), 0);
+}
+
+// A barrel lens shows more near the frame's edges than the pinhole image of the same size and
+// K: rendered over lensCoverCamera (enlarged) and warped, a picture fills the whole frame,
+// where the same-size warp leaves its edges black. Oracle: an analytic picture of the viewing
+// direction, evaluated at OpenCV's undistortPoints of each frame pixel.
+TEST(CoreDistortion, CoverCameraFillsTheBarrelFrame) {
+    const Camera c = lens(-0.22);
+    const Camera cover = lensCoverCamera(c);
+    auto f = [](double x, double y) {  // of the normalised undistorted coordinates
+        return Vec3f((float)(1.5 + std::sin(7 * x)), (float)(1.5 + std::cos(5 * y)),
+                     (float)(1.5 + std::sin(4 * (x + y))));
+    };
+    auto picture = [&](const Camera& cam) {
+        Mat img(cam.image_size, CV_32FC3);
+        const Matx33d Ki = cam.K.inv();
+        for (int y = 0; y < img.rows; ++y)
+            for (int x = 0; x < img.cols; ++x) {
+                const Vec3d n = Ki * Vec3d(x, y, 1);
+                img.at<Vec3f>(y, x) = f(n[0], n[1]);
+            }
+        return img;
+    };
+    std::vector<Point2d> pd, pu;
+    for (int y = 0; y < c.image_size.height; ++y)
+        for (int x = 0; x < c.image_size.width; ++x)
+            pd.emplace_back(x, y);
+    undistortPoints(pd, pu, Mat(c.K), std::vector<double>{c.k1, 0, 0, 0}, noArray(), noArray(),
+                    TermCriteria(TermCriteria::COUNT + TermCriteria::EPS, 100, 1e-12));
+    Mat warped, same_size;
+    distortImageK1(picture(cover), warped, c, cover);
+    distortImageK1(picture(c), same_size, c);
+    ASSERT_EQ(warped.size(), c.image_size);
+    int black = 0, black_same = 0, n = 0;
+    double worst = 0;
+    for (size_t i = 0; i < pd.size(); ++i) {
+        const int x = (int)pd[i].x, y = (int)pd[i].y;
+        if (!std::isfinite(c.undistortPixel(pd[i]).x)) continue;  // beyond the fold
+        ++n;
+        const Vec3f w = warped.at<Vec3f>(y, x);
+        black += w == Vec3f(0, 0, 0);
+        black_same += same_size.at<Vec3f>(y, x) == Vec3f(0, 0, 0);
+        worst = std::max(worst, norm(Vec3d(w) - Vec3d(f(pu[i].x, pu[i].y)), NORM_INF));
+    }
+    std::printf(
+        "barrel k1 %.2f, %dx%d frame: cover %dx%d; black pixels %d (same-size render %d) "
+        "of %d; worst error %.4f\n",
+        c.k1, c.image_size.width, c.image_size.height, cover.image_size.width,
+        cover.image_size.height, black, black_same, n, worst);
+    EXPECT_EQ(black, 0);
+    EXPECT_GT(black_same, 100);
+    EXPECT_LT(worst, 0.02);
+    // the same pose and focal lengths; the principal point moved by whole pixels
+    EXPECT_EQ(cover.R, c.R);
+    EXPECT_EQ(cover.K(0, 0), c.K(0, 0));
+    EXPECT_EQ(cover.K(1, 1), c.K(1, 1));
+    const double dx = cover.K(0, 2) - c.K(0, 2), dy = cover.K(1, 2) - c.K(1, 2);
+    EXPECT_EQ(dx, std::round(dx));
+    EXPECT_EQ(dy, std::round(dy));
+    // undistorting the frame into the cover camera puts each ray where the cover renders it
+    Mat frame(c.image_size, CV_32FC3), und;
+    for (size_t i = 0; i < pd.size(); ++i)
+        frame.at<Vec3f>((int)pd[i].y, (int)pd[i].x) = f(pu[i].x, pu[i].y);
+    undistortImageK1(frame, und, c, cover);
+    ASSERT_EQ(und.size(), cover.image_size);
+    const Mat truth = picture(cover);
+    const Rect centre((int)dx + 8, (int)dy + 8, c.image_size.width - 16, c.image_size.height - 16);
+    EXPECT_LT(norm(und(centre), truth(centre), NORM_INF), 0.02);
+    // no lens, or pincushion: the camera itself (k1 > 0 sees less than the pinhole image)
+    EXPECT_EQ(lensCoverCamera(lens(0)).image_size, lens(0).image_size);
+    EXPECT_EQ(lensCoverCamera(lens(0.15)).K, lens(0.15).K);
 }
 
 // k1 is written to the scene file's camera and the camera path, only when not 0 (so files of

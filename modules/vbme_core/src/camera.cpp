@@ -109,25 +109,28 @@ void pixelMaps(Size size, F f, Mat& mx, Mat& my) {
     });
 }
 
-// The last maps of each direction, reused while K, k1 and the size stay (a video's frames, a
-// render's layers). Fresh Mats on a change, so maps handed out before stay valid.
+// The last maps of each direction, reused while K, k1, the other camera's K and the size stay (a
+// video's frames, a render's layers). Fresh Mats on a change, so maps handed out before stay
+// valid.
 struct MapCache {
     std::mutex m;
-    Matx33d K;
+    Matx33d K, K_other;
     double k1 = 0;
     Size size;
     Mat mx, my;
 };
 
 template <class F>
-void cachedMaps(MapCache& c, const Camera& cam, Size size, F f, Mat& mx, Mat& my) {
+void cachedMaps(MapCache& c, const Camera& cam, const Matx33d& K_other, Size size, F f, Mat& mx,
+                Mat& my) {
     std::lock_guard<std::mutex> lock(c.m);
-    if (c.mx.empty() || c.k1 != cam.k1 || c.K != cam.K || c.size != size) {
+    if (c.mx.empty() || c.k1 != cam.k1 || c.K != cam.K || c.K_other != K_other || c.size != size) {
         Mat nx, ny;
         pixelMaps(size, f, nx, ny);
         c.mx = nx;
         c.my = ny;
         c.K = cam.K;
+        c.K_other = K_other;
         c.k1 = cam.k1;
         c.size = size;
     }
@@ -135,19 +138,35 @@ void cachedMaps(MapCache& c, const Camera& cam, Size size, F f, Mat& mx, Mat& my
     my = c.my;
 }
 MapCache undistort_maps, distort_maps;
+
+// Pixel p of camera `from` as the same ray's pixel of camera `to` (same pose and focal lengths;
+// the identity when the K are equal, so the same-camera warps are unchanged).
+Point2d changeK(const Point2d& p, const Matx33d& from, const Matx33d& to) {
+    if (from == to) return p;
+    const Vec3d x = from.inv() * Vec3d(p.x, p.y, 1.0);
+    const Vec3d q = to * x;
+    return Point2d(q[0] / q[2], q[1] / q[2]);
+}
 }  // namespace
 
 void undistortImageK1(InputArray distorted, OutputArray undistorted, const Camera& cam,
                       int interpolation, int border_mode) {
+    Camera target = cam;
+    target.image_size = distorted.size();
+    undistortImageK1(distorted, undistorted, cam, target, interpolation, border_mode);
+}
+
+void undistortImageK1(InputArray distorted, OutputArray undistorted, const Camera& cam,
+                      const Camera& target, int interpolation, int border_mode) {
     const Mat src = distorted.getMat();
-    if (cam.k1 == 0) {
+    if (cam.k1 == 0 && target.K == cam.K && target.image_size == src.size()) {
         if (undistorted.getObj() != distorted.getObj()) src.copyTo(undistorted);
         return;
     }
     Mat mx, my;
     cachedMaps(
-        undistort_maps, cam, src.size(), [&](const Point2d& p) { return cam.distortPixel(p); }, mx,
-        my);
+        undistort_maps, cam, target.K, target.image_size,
+        [&](const Point2d& p) { return cam.distortPixel(changeK(p, target.K, cam.K)); }, mx, my);
     Mat out;
     remap(src, out, mx, my, interpolation, border_mode);
     undistorted.assign(out);
@@ -155,18 +174,70 @@ void undistortImageK1(InputArray distorted, OutputArray undistorted, const Camer
 
 void distortImageK1(InputArray undistorted, OutputArray distorted, const Camera& cam,
                     int interpolation) {
+    Camera source = cam;
+    source.image_size = undistorted.size();
+    Camera c = cam;
+    c.image_size = undistorted.size();
+    distortImageK1(undistorted, distorted, c, source, interpolation);
+}
+
+void distortImageK1(InputArray undistorted, OutputArray distorted, const Camera& cam,
+                    const Camera& source, int interpolation) {
     const Mat src = undistorted.getMat();
-    if (cam.k1 == 0) {
+    if (cam.k1 == 0 && source.K == cam.K && cam.image_size == src.size()) {
         if (undistorted.getObj() != distorted.getObj()) src.copyTo(distorted);
         return;
     }
+    CV_Assert(cam.image_size.area() > 0);
     Mat mx, my;
     cachedMaps(
-        distort_maps, cam, src.size(), [&](const Point2d& p) { return cam.undistortPixel(p); }, mx,
-        my);
+        distort_maps, cam, source.K, cam.image_size,
+        [&](const Point2d& p) { return changeK(cam.undistortPixel(p), cam.K, source.K); }, mx, my);
     Mat out;
     remap(src, out, mx, my, interpolation, BORDER_CONSTANT, Scalar::all(0));
     distorted.assign(out);
+}
+
+Camera lensCoverCamera(const Camera& cam) {
+    if (cam.k1 >= 0) return cam;
+    CV_Assert(cam.image_size.area() > 0);
+    const int w = cam.image_size.width, h = cam.image_size.height;
+    // The undistorted region of the frame is bounded by the undistorted frame border (the radial
+    // map keeps the border outside); border pixels beyond the fold count at the fold's radius.
+    const double r_fold = 1 / std::sqrt(3 * -cam.k1);
+    const Matx33d Ki = cam.K.inv();
+    double x0 = 0, y0 = 0, x1 = w - 1, y1 = h - 1;
+    auto add = [&](double x, double y) {
+        Point2d q = cam.undistortPixel(Point2d(x, y));
+        if (!std::isfinite(q.x)) {  // beyond the fold: the same direction at the fold's radius
+            const Vec3d n = Ki * Vec3d(x, y, 1.0);
+            const double s = r_fold / std::hypot(n[0], n[1]);
+            const Vec3d p = cam.K * Vec3d(n[0] * s, n[1] * s, 1.0);
+            q = Point2d(p[0], p[1]);
+        }
+        x0 = std::min(x0, q.x);
+        y0 = std::min(y0, q.y);
+        x1 = std::max(x1, q.x);
+        y1 = std::max(y1, q.y);
+    };
+    for (int x = 0; x < w; ++x) {
+        add(x, 0);
+        add(x, h - 1);
+    }
+    for (int y = 0; y < h; ++y) {
+        add(0, y);
+        add(w - 1, y);
+    }
+    const int pad = 2;  // the bilinear warp's neighbours
+    const int left = std::max(0, (int)std::ceil(-x0) + pad),
+              top = std::max(0, (int)std::ceil(-y0) + pad);
+    const int right = std::max(0, (int)std::ceil(x1 - (w - 1)) + pad);
+    const int bottom = std::max(0, (int)std::ceil(y1 - (h - 1)) + pad);
+    Camera c = cam;
+    c.K(0, 2) += left;
+    c.K(1, 2) += top;
+    c.image_size = Size(w + left + right, h + top + bottom);
+    return c;
 }
 
 Matx44d Camera::camFromWorldMatrix() const {

@@ -446,5 +446,12 @@ DifferentialImages readDifferentialExr(const std::string& path, OutputArray comp
     return im;
 }
 
+void distortLayersK1(DifferentialImages& im, const Camera& cam, const Camera& source) {
+    if (cam.k1 == 0 && source.K == cam.K && source.image_size == cam.image_size) return;
+    for (Mat* m : {&im.obj, &im.noobj, &im.diff, &im.mask, &im.object})
+        if (!m->empty()) distortImageK1(*m, *m, cam, source);
+    if (!im.samples.empty()) distortImageK1(im.samples, im.samples, cam, source, INTER_NEAREST);
+}
+
 }  // namespace vbme
 }  // namespace cv

@@ -151,12 +151,14 @@ int shutterSubframes(const PreparedInsertion& prep, int i, double shutter) {
 }  // namespace
 
 void renderFrameLayers(PreparedInsertion& prepared, int i, DifferentialImages& im) {
+    // With a barrel lens (k1 < 0) the pinhole camera over the whole region the frame shows
+    // (enlarged; the frame's own camera otherwise): renderInsertionFrame() warps it to the lens.
+    const Camera base = lensCoverCamera(prepared.camera(i));
     const int K = shutterSubframes(prepared, i, prepared.shutter);
     if (K <= 1) {  // no blur: the one render (as without motion blur)
-        prepared.renderer->render(*prepared.render_scene, prepared.camera(i), im);
+        prepared.renderer->render(*prepared.render_scene, base, im);
         return;
     }
-    const Camera base = prepared.camera(i);
     renderOverShutter(
         prepared.renderer->getParams(), *prepared.render_scene,
         [&](double t) { return cameraAtTime(prepared.path, t, base); }, i, prepared.shutter, K, im);

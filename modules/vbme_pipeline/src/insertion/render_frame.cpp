@@ -7,17 +7,6 @@
 namespace cv {
 namespace vbme {
 
-namespace {
-// The footage's lens (Camera::k1): the layers, rendered in the undistorted pinhole camera, are
-// warped to where that lens shows them, so they line up with the (distorted) input frame.
-void distortLayers(DifferentialImages& im, const Camera& cam) {
-    if (cam.k1 == 0) return;
-    for (Mat* m : {&im.obj, &im.noobj, &im.diff, &im.mask, &im.object})
-        if (!m->empty()) distortImageK1(*m, *m, cam);
-    if (!im.samples.empty()) distortImageK1(im.samples, im.samples, cam, INTER_NEAREST);
-}
-}  // namespace
-
 void renderInsertionFrame(PreparedInsertion& prepared, int i, InputArray frame,
                           OutputArray composite, DifferentialImages* layers,
                           Mat* composite_linear) {
@@ -36,22 +25,23 @@ void renderInsertionFrame(PreparedInsertion& prepared, int i, InputArray frame,
     // ---- exposure and white balance (issue 21): the layers at the frame's exposure ----
     if (i < (int)prepared.gains.size()) insertion::applyFrameGain(im, prepared.gains[i]);
     // ---- end of exposure ----
-    // The difference layer is denoised where it was rendered, guided by the frame in the same
-    // (undistorted) geometry, and only then warped to the lens: denoising after the warp
-    // spread differences into the border a barrel lens leaves unrendered (no I_noObj there),
-    // which ratio shadows turn black (PipelineInsertDistortion.K1InSceneBeatsIgnoringIt:
-    // centroid 2.55 px off instead of 0.41).
+    // The layers were rendered in the pinhole camera (enlarged to everything a barrel lens shows,
+    // lensCoverCamera) and are warped to the lens. The difference layer is denoised where it was
+    // rendered, guided by the frame in the same (undistorted) geometry, and only then warped:
+    // denoising after the warp spread differences into the border a barrel lens left unrendered
+    // (no I_noObj there), which ratio shadows turn black (PipelineInsertDistortion.
+    // K1InSceneBeatsIgnoringIt: centroid 2.55 px off instead of 0.41, before the enlargement).
+    const Camera cam = prepared.camera(i), cover = lensCoverCamera(cam);
     if (prepared.denoise > 0) {
-        const Camera& cam = prepared.scene.camera;
         if (cam.k1 == 0) {
             denoiseDifference(im, frame, prepared.denoise);
         } else {
             Mat guide;
-            undistortImageK1(frame, guide, cam);
+            undistortImageK1(frame, guide, cam, cover);
             denoiseDifference(im, guide, prepared.denoise);
         }
     }
-    distortLayers(im, prepared.scene.camera);
+    distortLayersK1(im, cam, cover);
     Mat linear;
     compositeDifferential(frame, im, linear, cp);
     insertion::addFrameGrain(prepared, i, im, linear);  // the footage's noise on the objects

@@ -115,6 +115,31 @@ warps every differential-rendering layer so before compositing with the footage.
 CV_EXPORTS void distortImageK1(InputArray undistorted, OutputArray distorted, const Camera& cam,
                                int interpolation = INTER_LINEAR);
 
+/** @brief The pinhole camera whose image holds everything @p cam's lens shows: the same pose,
+focal lengths and k1, the principal point moved by whole pixels and the image enlarged so that
+the undistorted point (Camera::undistortPixel) of every pixel of @p cam's frame lies inside it,
+with a 2-pixel border for interpolation. Barrel distortion (k1 < 0) sees more near the frame's
+edges than the pinhole image of the same size and K: a render of this camera, warped by the
+distortImageK1() that takes the source camera, fills the whole frame. For
+k1 ≥ 0 (and where the barrel frame reaches beyond the fold, up to the fold's radius) the image
+is not made smaller than @p cam's: @p cam itself is returned when k1 = 0. */
+CV_EXPORTS Camera lensCoverCamera(const Camera& cam);
+
+/** @brief distortImageK1() for an image rendered by another pinhole camera @p source of the
+same pose and focal lengths (e.g. lensCoverCamera(cam)): pixel p of the result (of size
+cam.image_size) takes the source's value at `source.K · cam.K⁻¹ · cam.undistortPixel(p)`; 0
+where that lies outside the source. With source = cam it is the warp above. */
+CV_EXPORTS void distortImageK1(InputArray undistorted, OutputArray distorted, const Camera& cam,
+                               const Camera& source, int interpolation = INTER_LINEAR);
+
+/** @brief undistortImageK1() into another pinhole camera @p target of the same pose and focal
+lengths (e.g. lensCoverCamera(cam)): pixel p of the result (of size target.image_size) takes the
+frame's value at `cam.distortPixel(cam.K · target.K⁻¹ · p)`, following @p border_mode outside
+the frame. */
+CV_EXPORTS void undistortImageK1(InputArray distorted, OutputArray undistorted, const Camera& cam,
+                                 const Camera& target, int interpolation = INTER_LINEAR,
+                                 int border_mode = BORDER_REPLICATE);
+
 /** @brief Principal point at the image centre of the DESIGN convention: ((w−1)/2, (h−1)/2). */
 CV_EXPORTS Point2d imageCenter(Size size);
 

@@ -222,6 +222,14 @@ count gives the same result).
 @param radius r in pixels (≥ 1). */
 CV_EXPORTS void denoiseDifference(DifferentialImages& layers, InputArray guide, int radius);
 
+/** @brief Warps the layers of a differential render made with the pinhole camera @p source to
+where the lens of @p cam (Camera::k1) shows them, in place (distortImageK1(): bilinear, the
+sample counts nearest; 0 where the source holds nothing). With @p source =
+lensCoverCamera(cam) the layers fill @p cam's whole frame. Nothing changes when cam.k1 = 0 and
+@p source is @p cam. `vbme insert` and `vbme render --differential` composite so. */
+CV_EXPORTS void distortLayersK1(DifferentialImages& layers, const Camera& cam,
+                                const Camera& source);
+
 /** @brief Encodes a linear composite with the response, to the depth of the input frame
 (CV_8U or CV_16U; CV_32F input gives CV_16U). Where the composite equals the linearised input,
 the result equals the input bit for bit (8-bit input). */
