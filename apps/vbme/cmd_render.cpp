@@ -1,6 +1,7 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 // vbme render: path trace a scene file to OpenEXR (and optionally a PNG/JPEG).
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <thread>
@@ -19,7 +20,7 @@ struct RenderOptions {
     int spp = 0, max_depth = 0, threads = 0, width = 0, height = 0, frame = -1;
     long long seed = -1;
     float clamp = 0;
-    bool no_objects = false, preview = false;
+    bool no_objects = false, preview = false, no_lens = false;
     // differential rendering
     bool differential = false, independent = false;
     std::string background, composite, mask = "projected", frame_seeds = "fixed", shadows = "ratio";
@@ -36,6 +37,12 @@ std::string lowerExt(const std::string& p) {
     for (auto& c : e)
         c = char(std::tolower((unsigned char)c));
     return e;
+}
+
+// The header attribute of a render through a lens (Camera::k1; none without one, so renders of
+// pinhole cameras keep their headers).
+void addLensAttribute(std::map<std::string, std::string>& attr, const cv::vbme::Camera& camera) {
+    if (camera.k1 != 0) attr["vbme.k1"] = cv::format("%.17g", camera.k1);
 }
 
 void runDifferential(const RenderOptions& o, const cv::vbme::Scene& scene,
@@ -65,10 +72,14 @@ void runDifferential(const RenderOptions& o, const cv::vbme::Scene& scene,
     cv::Ptr<RenderScene> rs = RenderScene::create(scene);
     DifferentialImages im;
     RenderStats st;
+    // through the lens (camera.k1): rendered over the pinhole camera of everything the lens
+    // shows, then warped to it, as vbme insert does
+    const Camera cover = lensCoverCamera(camera);
     {
-        Progress progress("render", (int64)camera.image_size.area() * (o.independent ? 2 : 1));
-        st = DifferentialRenderer::create(dp)->render(*rs, camera, im, &progress);
+        Progress progress("render", (int64)cover.image_size.area() * (o.independent ? 2 : 1));
+        st = DifferentialRenderer::create(dp)->render(*rs, cover, im, &progress);
     }
+    distortLayersK1(im, camera, cover);
     CompositeParams cp;
     cp.alpha = o.alpha;
     cp.response = camera.response;
@@ -93,6 +104,7 @@ void runDifferential(const RenderOptions& o, const cv::vbme::Scene& scene,
                        : std::string("correlated")},
         {"vbme.samplesPerPixel",
          cv::format("%.3f", im.samples.empty() ? (double)p.spp : cv::mean(im.samples)[0])}};
+    addLensAttribute(attr, camera);
     writeDifferentialExr(o.out, im, linear, attr);
     if (!o.composite.empty()) {
         cv::Mat enc;
@@ -132,11 +144,18 @@ void runRender(const RenderOptions& o) {
                      cv::format("--frame %d: the camera path '%s' has %d frames (0 … %d)", o.frame,
                                 o.cameras.c_str(), (int)path.frames.size(),
                                 (int)path.frames.size() - 1));
+        if (path.k1 != 0 && std::abs(path.k1 - scene.camera.k1) > 1e-9)
+            CV_Error(cv::Error::StsBadArg,
+                     cv::format("the camera path '%s' records the lens k1 = %g, the scene's camera "
+                                "k1 = %g",
+                                o.cameras.c_str(), path.k1, scene.camera.k1));
         camera = path.camera((size_t)o.frame);
         camera.response = scene.camera.response;
+        camera.k1 = scene.camera.k1;
         if (camera.image_size.area() <= 0) camera.image_size = scene.image_size;
     }
     if (o.width > 0) camera = camera.scaled(cv::Size(o.width, o.height));
+    if (o.no_lens) camera.k1 = 0;
 
     Renderer::Params p = Renderer::Params::fromScene(scene.render);
     if (o.spp > 0) p.spp = o.spp;
@@ -158,16 +177,22 @@ void runRender(const RenderOptions& o) {
     cv::Ptr<Renderer> renderer = Renderer::create(p);
     RenderImages img;
     RenderStats st;
+    const Camera cover = lensCoverCamera(camera);  // the lens's whole view (camera itself: none)
     {
-        Progress progress("render", (int64)camera.image_size.area());
-        st = renderer->render(*rs, camera, img, &progress);
+        Progress progress("render", (int64)cover.image_size.area());
+        st = renderer->render(*rs, cover, img, &progress);
     }
+    for (cv::Mat* m : {&img.color, &img.albedo, &img.normal, &img.object, &img.mask})
+        if (!m->empty()) distortImageK1(*m, *m, camera, cover);
+    if (!img.samples.empty())
+        distortImageK1(img.samples, img.samples, camera, cover, cv::INTER_NEAREST);
     std::map<std::string, std::string> attr = {{"vbme.version", VBME_VERSION},
                                                {"vbme.commandLine", commandLine()},
                                                {"vbme.seed", std::to_string(p.seed)},
                                                {"vbme.spp", std::to_string(p.spp)},
                                                {"vbme.maxDepth", std::to_string(p.max_depth)},
                                                {"vbme.scene", o.scene}};
+    addLensAttribute(attr, camera);
     writeExr(o.out, img, attr);
     if (!o.png.empty()) {
         cv::Mat enc;
@@ -191,7 +216,9 @@ void setupRender(CLI::App& app) {
         "(fraction of paths that met an `objects:` mesh) and mask (fraction of camera rays\n"
         "that see one first), with the vbme version, the\n"
         "command line and the seed in its header. The result is bitwise identical for any\n"
-        "--threads. Options left out take the scene's `render:` settings.");
+        "--threads. Options left out take the scene's `render:` settings. With a lens in the\n"
+        "scene (camera.k1) the images are as that lens shows them: rendered in the pinhole\n"
+        "camera over everything the lens sees, then warped to it (header vbme.k1).");
     app.add_option("--scene", o->scene, "Scene file (YAML/JSON)")->required();
     app.add_option("--out", o->out, "Output OpenEXR file (.exr)")->required();
     app.add_option("--png", o->png,
@@ -235,6 +262,9 @@ void setupRender(CLI::App& app) {
     app.add_option("--light-selection", o->lights,
                    "How each vertex picks the light to sample: uniform or (mostly) by power")
         ->check(CLI::IsMember({"uniform", "power"}));
+    app.add_flag("--no-lens", o->no_lens,
+                 "Render the pinhole camera even when the scene has a lens (camera.k1): the "
+                 "undistorted image, the same size");
     app.add_flag(
         "--no-objects", o->no_objects,
         "Render without the scene's objects: (the background pass of differential rendering)");
