@@ -8,11 +8,15 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/vbme/calib.hpp>
+#include <opencv2/vbme/datasets/insertion_sequence.hpp>
+
+#include "vbme_test_util.hpp"
 
 namespace {
 
@@ -181,3 +185,75 @@ TEST(CalibDistortion, ColmapModelOfAK1TrackIsSimpleRadial) {
 }
 
 }  // namespace
+
+// The annotation file carries a known k1 (e.g. from an earlier --distortion k1): the clicked lines
+// and room points of a frame filmed through the lens (the synthetic sequence's exact annotation,
+// every point moved where a k1 = −0.2 lens shows it) calibrate to the pinhole camera and room
+// when the annotation says k1, against the same clicks with k1 left out. Files without k1 read 0
+// and an annotation without one is written as before.
+TEST(CalibDistortion, AnnotationWithK1CalibratesTheDistortedClicks) {
+    vbme_test::ScratchDir tmp;
+    SyntheticInsertionSequence::Params p;
+    p.size = Size(320, 240);
+    p.frames = 1;
+    p.texture_size = 16;
+    p.click_noise_px = 0;
+    const SyntheticInsertionSequence seq(tmp / "seq", p);
+    Camera lens = seq.trueScene().camera;
+    lens.k1 = -0.2;
+    FrameAnnotation ann = seq.annotation();
+    auto bend = [&](Point2d& q) { q = lens.distortPixel(q); };
+    for (LineGroup& g : ann.lines)
+        for (Vec4d& s : g.segments) {
+            Point2d a(s[0], s[1]), b(s[2], s[3]);
+            bend(a);
+            bend(b);
+            s = Vec4d(a.x, a.y, b.x, b.y);
+        }
+    for (auto& kv : ann.room.floor_edges)
+        for (Point2d& q : kv.second)
+            bend(q);
+    for (auto& kv : ann.room.ceiling_edges)
+        for (Point2d& q : kv.second)
+            bend(q);
+    for (auto& c : ann.room.wall_corners)
+        for (Point2d& q : c.points)
+            bend(q);
+    for (auto& l : ann.lights)
+        for (Point2d& q : l.polygon)
+            bend(q);
+    // the file: k1 written and read back; without it, as before
+    ann.k1 = lens.k1;
+    ann.write(tmp / "k1.yml");
+    EXPECT_EQ(FrameAnnotation::read(tmp / "k1.yml").k1, lens.k1);
+    seq.annotation().write(tmp / "plain.yml");
+    std::ifstream plain_in(tmp / "plain.yml"), orig_in(seq.annotationPath());
+    const std::string plain((std::istreambuf_iterator<char>(plain_in)), {});
+    const std::string orig((std::istreambuf_iterator<char>(orig_in)), {});
+    EXPECT_EQ(plain.find("k1"), std::string::npos);
+    EXPECT_EQ(plain, orig);
+    EXPECT_EQ(FrameAnnotation::read(seq.annotationPath()).k1, 0.0);
+
+    const Mat grey(p.size, CV_8UC3, Scalar::all(128));
+    const Scene truth = seq.trueScene();
+    auto errors = [&](const FrameAnnotation& a, double* room_err) {
+        const Scene s = calibrateFrame(grey, a, FrameCalibrationOptions());
+        *room_err = std::max(norm(s.room.min - truth.room.min, NORM_INF),
+                             norm(s.room.max - truth.room.max, NORM_INF));
+        EXPECT_EQ(s.camera.k1, a.k1);
+        return std::abs(s.camera.K(0, 0) / truth.camera.K(0, 0) - 1);
+    };
+    double room_k1 = 0, room_ignored = 0;
+    const double f_k1 = errors(FrameAnnotation::read(tmp / "k1.yml"), &room_k1);
+    FrameAnnotation ignored = ann;
+    ignored.k1 = 0;
+    const double f_ignored = errors(ignored, &room_ignored);
+    std::printf(
+        "annotation clicked through a k1 %.2f lens: focal error %.3f %% with the "
+        "annotation's k1, %.3f %% ignoring it; worst room face off by %.1f mm, %.1f mm\n",
+        lens.k1, 100 * f_k1, 100 * f_ignored, 1000 * room_k1, 1000 * room_ignored);
+    EXPECT_LT(f_k1, 0.002);
+    EXPECT_LT(room_k1, 0.01);
+    EXPECT_GT(f_ignored, 5 * f_k1);
+    EXPECT_GT(room_ignored, 5 * room_k1);
+}

@@ -118,11 +118,11 @@ void runCalibrate(const CalibrateOptions& o) {
         fc.focal_rel_sigma > 0 ? cv::format(" ±%.1f %%", 100 * fc.focal_rel_sigma).c_str() : "",
         2 * std::atan2(image.cols * 0.5, scene.camera.K(0, 0)) * 180 / CV_PI, scene.camera.K(0, 2),
         scene.camera.K(1, 2));
-    if (opt.vp.estimate_distortion)
+    if (opt.vp.estimate_distortion || fc.k1 != 0)
         std::printf(
-            "radial distortion k1 %.4f (x_d = x (1 + k1 |x|^2), x = K^-1 p; written to the "
+            "radial distortion k1 %.4f%s (x_d = x (1 + k1 |x|^2), x = K^-1 p; written to the "
             "scene's camera: track-camera and insert undistort the frames with it)\n",
-            fc.k1);
+            fc.k1, opt.vp.estimate_distortion ? "" : " (the annotation's)");
     std::printf(
         "camera at (%.3f, %.3f, %.3f) m, heading %.1f deg, elevation %.1f deg; "
         "segments x/y/z %d/%d/%d, rms %.2f px, confidence %.2f\n",

@@ -300,6 +300,11 @@ struct CV_EXPORTS FrameAnnotation {
     Size image_size;               //!< optional: checked against the image when given
     std::vector<LineGroup> lines;  //!< parallel-line groups (two or three directions)
     double focal = 0;              //!< known focal length (px), 0: estimate
+    /** @brief Known radial distortion of the lens (Camera::k1, relative to the normalised
+    coordinates K⁻¹ p), e.g. from an earlier `--distortion k1`; 0: none. The annotation's points
+    and lines are those of the distorted frame, as clicked. Written only when not 0 (files
+    without it read as 0). */
+    double k1 = 0;
     /** @brief Known principal point (px); negative: the image centre. */
     Point2d principal_point = Point2d(-1, -1);
     /** @brief Principal point as the orthocentre of three vanishing points. */
