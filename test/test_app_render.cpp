@@ -22,21 +22,28 @@ using vbme_test::ScratchDir;
 
 namespace {
 
-// A small room with a ceiling light and a cube, written as a scene file.
-std::string writeScene(const ScratchDir& dir, bool broken_mesh = false) {
-    vbme_test::writeCubeObj(dir / "cube.obj");
+// A box room [lo, hi] lit by a 1 m² ceiling panel at z = 2.5, seen by `cam`.
+Scene litRoom(const Camera& cam, const Vec3d& lo, const Vec3d& hi) {
     Scene s;
-    s.image_size = Size(16, 12);
-    s.camera = vbme_test::lookAt(Vec3d(0, -1.4, 1.2), Vec3d(0, 0.3, 0.5), 14, s.image_size);
+    s.image_size = cam.image_size;
+    s.camera = cam;
     s.has_room = true;
-    s.room.min = Vec3d(-1.5, -1.5, 0);
-    s.room.max = Vec3d(1.5, 1.5, 2.5);
+    s.room.min = lo;
+    s.room.max = hi;
     Light l;
     l.type = Light::POLYGON;
     l.corners = {Vec3d(-0.5, 0.5, 2.5), Vec3d(0.5, 0.5, 2.5), Vec3d(0.5, -0.5, 2.5),
                  Vec3d(-0.5, -0.5, 2.5)};
     l.radiance = Vec3d(5, 5, 5);
     s.lights = {l};
+    return s;
+}
+
+// A small room with a ceiling light and a cube, written as a scene file.
+std::string writeScene(const ScratchDir& dir, bool broken_mesh = false) {
+    vbme_test::writeCubeObj(dir / "cube.obj");
+    Scene s = litRoom(vbme_test::lookAt(Vec3d(0, -1.4, 1.2), Vec3d(0, 0.3, 0.5), 14, Size(16, 12)),
+                      Vec3d(-1.5, -1.5, 0), Vec3d(1.5, 1.5, 2.5));
     SceneObject o;
     o.mesh = broken_mesh ? dir / "nothere.obj" : dir / "cube.obj";
     o.world_from_object = vbme_test::placement(0.4, Vec3d(0, 0.3, 0.2));
@@ -251,18 +258,9 @@ struct LensScene {
     const double side = 0.2;
     LensScene(const ScratchDir& dir) {
         vbme_test::writeCubeObj(dir / "cube.obj");
-        s.image_size = Size(64, 48);
-        s.camera = vbme_test::lookAt(Vec3d(0, -1.5, 1.0), Vec3d(0, 1, 1.0), 48, s.image_size);
+        s = litRoom(vbme_test::lookAt(Vec3d(0, -1.5, 1.0), Vec3d(0, 1, 1.0), 48, Size(64, 48)),
+                    Vec3d(-2.5, -2.5, 0), Vec3d(2.5, 3, 2.5));
         s.camera.k1 = -0.2;
-        s.has_room = true;
-        s.room.min = Vec3d(-2.5, -2.5, 0);
-        s.room.max = Vec3d(2.5, 3, 2.5);
-        Light l;
-        l.type = Light::POLYGON;
-        l.corners = {Vec3d(-0.5, 0.5, 2.5), Vec3d(0.5, 0.5, 2.5), Vec3d(0.5, -0.5, 2.5),
-                     Vec3d(-0.5, -0.5, 2.5)};
-        l.radiance = Vec3d(5, 5, 5);
-        s.lights = {l};
         // camera axes: image right +x, down −z, forward +y; 2 m in front
         for (const Point2d& xn : {Point2d(0.73, 0.2), Point2d(0.55, 0.35)}) {
             centres.push_back(Vec3d(2 * xn.x, -1.5 + 2, 1.0 - 2 * xn.y));
@@ -360,8 +358,9 @@ TEST(AppRender, LensK1RendersThroughTheLens) {
     std::printf(
         "render through the lens k1 -0.2: coverage error %.3f (pinhole render %.3f); "
         "true coverage in the band beyond the pinhole frame %.2f px, rendered %.2f "
-        "(pinhole %.2f); centroid %.2f px off\n",
-        err, err_pin, in_band, inBand(lens), inBand(pin), shift);
+        "(pinhole %.2f); centroid %.2f px off; rendered over %dx%d\n",
+        err, err_pin, in_band, inBand(lens), inBand(pin), shift,
+        lensCoverCamera(cam).image_size.width, lensCoverCamera(cam).image_size.height);
     ASSERT_GT(in_band, 4);  // the setting: the lens shows the edge cube there
     EXPECT_NEAR(inBand(lens), in_band, 0.2 * in_band);
     EXPECT_LT(err, 0.2);
