@@ -5,6 +5,7 @@ rotation and (optionally) radial lens distortion, as test data for single-image 
 
     blender -b -t 2 -P scripts/blender/calib_rooms.py -- --out test/data/calib_rooms \
         [--count 32] [--seed 19] [--samples 12] [--only 3] [--skip_existing 1] [--truth_only 1]
+        [--lens compositor --distorted_only 1]
 
 Scene: a box room (or a long corridor) with textured walls (procedural brick, noise, plain),
 a wooden floor, doors, picture frames, windows, shelves, tables, boxes (some turned by an
@@ -22,6 +23,16 @@ Distortion model (OpenCV / COLMAP SIMPLE_RADIAL, one coefficient): with normalis
 coordinates x_u = (u - cx) / f, the distorted point is x_d = x_u (1 + k1 |x_u|^2) and the pixel
 is cx + f x_d (pixel centres at integers, cx = (w - 1) / 2). Such images are rendered larger
 (same focal in pixels) and resampled into 640x480.
+
+--lens compositor: the distortion is Blender's own instead of the resampling above: the
+compositor's Movie Distortion node (distort) on the render, with a movie clip of the render's
+size whose tracking camera has the POLYNOMIAL model, k1 (k2 = k3 = 0), the focal length in
+pixels and the principal point at the render's centre; the frame is then the render's central
+640x480 crop (no resampling). The node's model is OpenCV's k1 with these settings:
+scripts/blender/lens_check.py distorts a grid of dots with it and finds every dot where
+x_d = x (1 + k1 |x|^2) puts it (160x120, f 100 px, k1 -0.2: centroids 0.41 px off at most,
+0.13 px on average, for displacements up to 16.5 px; 768x576, f 518.6, k1 -0.213: 0.39 / 0.13
+px for up to 84.2 px). --distorted_only 1 renders only the distorted images (every fifth).
 
 Ground truth: truth.csv, one row per image:
 name,kind,width,height,f_px,cx,cy,k1,f35,r00,r01,r02,r10,r11,r12,r20,r21,r22
@@ -41,7 +52,8 @@ W, H = 640, 480
 
 def parse_args():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    a = {"out": "calib_rooms", "count": 32, "seed": 19, "samples": 12, "only": -1, "skip_existing": 0, "truth_only": 0}
+    a = {"out": "calib_rooms", "count": 32, "seed": 19, "samples": 12, "only": -1, "skip_existing": 0, "truth_only": 0,
+         "lens": "resample", "distorted_only": 0}
     i = 0
     while i < len(argv):
         k = argv[i].lstrip("-")
@@ -396,6 +408,35 @@ def setup_render(samples, w, h):
     sc.render.image_settings.color_mode = "RGB"
 
 
+def compositor_lens(f, k1, sw, sh, out_dir):
+    """Distorts the render with Blender's compositor (Movie Distortion, POLYNOMIAL k1)."""
+    sc = bpy.context.scene
+    blank = bpy.data.images.new("lens_clip", sw, sh)
+    path = os.path.join(out_dir, "_lens_clip.png")
+    blank.filepath_raw = path
+    blank.file_format = "PNG"
+    blank.save()
+    clip = bpy.data.movieclips.load(path)
+    cam = clip.tracking.camera
+    cam.units = "PIXELS"
+    cam.focal_length_pixels = f
+    cam.principal = (sw / 2.0, sh / 2.0)  # Blender's pixel corners: the render's centre
+    cam.distortion_model = "POLYNOMIAL"
+    cam.k1, cam.k2, cam.k3 = k1, 0.0, 0.0
+    sc.use_nodes = True
+    nt = sc.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    rl = nt.nodes.new("CompositorNodeRLayers")
+    md = nt.nodes.new("CompositorNodeMovieDistortion")
+    md.clip = clip
+    md.distortion_type = "DISTORT"
+    comp = nt.nodes.new("CompositorNodeComposite")
+    nt.links.new(rl.outputs["Image"], md.inputs[0])
+    nt.links.new(md.outputs[0], comp.inputs[0])
+    return path
+
+
 def postprocess(src_png, dst_jpg, rng, f, k1, overscan):
     """Resamples the (larger, when distorted) render into W x H with radial distortion k1,
     adds Gaussian noise and writes a JPEG."""
@@ -468,7 +509,7 @@ def main():
             rd2 = ((W - 1) ** 2 + (H - 1) ** 2) / 4.0 / (f35 / 36.0 * W) ** 2
             k1 = -rng.uniform(0.4, 1.0) * min(0.25, 0.15 / rd2)
         f = f35 / 36.0 * W
-        if a["only"] >= 0 and idx != a["only"]:
+        if (a["only"] >= 0 and idx != a["only"]) or (a["distorted_only"] and not distorted):
             if name in existing:
                 rows.append(existing[name])
             continue
@@ -487,14 +528,21 @@ def main():
         # keep the focal in pixels exact: the lens scales with the actual width
         bpy.context.scene.camera.data.lens = f35 * W / sw
         setup_render(a["samples"], sw, sh)
+        lens_clip = None
+        if a["lens"] == "compositor" and k1 != 0.0:
+            lens_clip = compositor_lens(f, k1, sw, sh, a["out"])
         tmp = os.path.join(a["out"], "_tmp_%03d.png" % idx)
         bpy.context.scene.render.filepath = tmp
         if a["truth_only"] or (a["skip_existing"] and os.path.exists(os.path.join(a["out"], name))):
             pass
         else:
             bpy.ops.render.render(write_still=True)
-            postprocess(tmp, os.path.join(a["out"], name), rng, f, k1, overscan)
+            # with the compositor's lens the render is distorted already: crop only
+            postprocess(tmp, os.path.join(a["out"], name), rng, f, 0.0 if lens_clip else k1,
+                        overscan)
             os.remove(tmp)
+        if lens_clip:
+            os.remove(lens_clip)
         row = [name, "corridor" if corridor else "room", str(W), str(H), "%.6f" % f,
                "%.6f" % ((W - 1) / 2.0), "%.6f" % ((H - 1) / 2.0), "%.6f" % k1, "%.4f" % f35]
         row += ["%.9f" % R[i][j] for i in range(3) for j in range(3)]
