@@ -408,6 +408,20 @@ def setup_render(samples, w, h):
     sc.render.image_settings.color_mode = "RGB"
 
 
+def lens_clip(path, f, k1):
+    """A movie clip of the image file @p path (its size is the frame's) whose tracking camera is
+    vbme's / OpenCV's lens: POLYNOMIAL model with k1 (k2 = k3 = 0), focal f in pixels, the
+    principal point at the image centre (Blender's pixel corners: w / 2, h / 2)."""
+    clip = bpy.data.movieclips.load(path)
+    cam = clip.tracking.camera
+    cam.units = "PIXELS"
+    cam.focal_length_pixels = f
+    cam.principal = (clip.size[0] / 2.0, clip.size[1] / 2.0)
+    cam.distortion_model = "POLYNOMIAL"
+    cam.k1, cam.k2, cam.k3 = k1, 0.0, 0.0
+    return clip
+
+
 def compositor_lens(f, k1, sw, sh, out_dir):
     """Distorts the render with Blender's compositor (Movie Distortion, POLYNOMIAL k1)."""
     sc = bpy.context.scene
@@ -416,13 +430,7 @@ def compositor_lens(f, k1, sw, sh, out_dir):
     blank.filepath_raw = path
     blank.file_format = "PNG"
     blank.save()
-    clip = bpy.data.movieclips.load(path)
-    cam = clip.tracking.camera
-    cam.units = "PIXELS"
-    cam.focal_length_pixels = f
-    cam.principal = (sw / 2.0, sh / 2.0)  # Blender's pixel corners: the render's centre
-    cam.distortion_model = "POLYNOMIAL"
-    cam.k1, cam.k2, cam.k3 = k1, 0.0, 0.0
+    clip = lens_clip(path, f, k1)
     sc.use_nodes = True
     nt = sc.node_tree
     for n in list(nt.nodes):
@@ -557,4 +565,5 @@ def main():
     os.replace(truth + ".tmp", truth)
 
 
-main()
+if __name__ == "__main__":
+    main()

@@ -16,6 +16,9 @@ import tempfile
 
 import bpy
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import calib_rooms  # noqa: E402 (the lens settings it renders with)
+
 argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 a = {"w": 160, "h": 120, "f": 100.0, "k1": -0.2, "step": 16}
 for i in range(0, len(argv), 2):
@@ -42,14 +45,8 @@ img.filepath_raw = os.path.join(tmp, "dots.png")
 img.file_format = "PNG"
 img.save()
 
-# the lens: a movie clip of the image's size, its tracking camera as calib_rooms.py sets it
-clip = bpy.data.movieclips.load(img.filepath_raw)
-cam = clip.tracking.camera
-cam.units = "PIXELS"
-cam.focal_length_pixels = f
-cam.principal = (W / 2.0, H / 2.0)
-cam.distortion_model = "POLYNOMIAL"
-cam.k1, cam.k2, cam.k3 = k1, 0.0, 0.0
+# the lens: calib_rooms.py's own movie clip settings
+clip = calib_rooms.lens_clip(img.filepath_raw, f, k1)
 
 sc = bpy.context.scene
 sc.render.resolution_x, sc.render.resolution_y = W, H
