@@ -139,14 +139,20 @@ void cachedMaps(MapCache& c, const Camera& cam, const Matx33d& K_other, Size siz
 }
 MapCache undistort_maps, distort_maps;
 
-// Pixel p of camera `from` as the same ray's pixel of camera `to` (same pose and focal lengths;
-// the identity when the K are equal, so the same-camera warps are unchanged).
-Point2d changeK(const Point2d& p, const Matx33d& from, const Matx33d& to) {
-    if (from == to) return p;
-    const Vec3d x = from.inv() * Vec3d(p.x, p.y, 1.0);
-    const Vec3d q = to * x;
-    return Point2d(q[0] / q[2], q[1] / q[2]);
-}
+// Pixels of camera `from` as the same rays' pixels of camera `to` (same pose and focal lengths):
+// the homography to · from⁻¹, inverted once per map rather than at every pixel; the identity
+// when the K are equal, so the same-camera warps are unchanged.
+struct ChangeK {
+    bool identity;
+    Matx33d H;
+    ChangeK(const Matx33d& from, const Matx33d& to)
+        : identity(from == to), H(identity ? Matx33d::eye() : Matx33d(to * from.inv())) {}
+    Point2d operator()(const Point2d& p) const {
+        if (identity) return p;
+        const Vec3d q = H * Vec3d(p.x, p.y, 1.0);
+        return Point2d(q[0] / q[2], q[1] / q[2]);
+    }
+};
 }  // namespace
 
 void undistortImageK1(InputArray distorted, OutputArray undistorted, const Camera& cam,
@@ -166,7 +172,10 @@ void undistortImageK1(InputArray distorted, OutputArray undistorted, const Camer
     Mat mx, my;
     cachedMaps(
         undistort_maps, cam, target.K, target.image_size,
-        [&](const Point2d& p) { return cam.distortPixel(changeK(p, target.K, cam.K)); }, mx, my);
+        [&, toCam = ChangeK(target.K, cam.K)](const Point2d& p) {
+            return cam.distortPixel(toCam(p));
+        },
+        mx, my);
     Mat out;
     remap(src, out, mx, my, interpolation, border_mode);
     undistorted.assign(out);
@@ -192,7 +201,10 @@ void distortImageK1(InputArray undistorted, OutputArray distorted, const Camera&
     Mat mx, my;
     cachedMaps(
         distort_maps, cam, source.K, cam.image_size,
-        [&](const Point2d& p) { return changeK(cam.undistortPixel(p), cam.K, source.K); }, mx, my);
+        [&, toSource = ChangeK(cam.K, source.K)](const Point2d& p) {
+            return toSource(cam.undistortPixel(p));
+        },
+        mx, my);
     Mat out;
     remap(src, out, mx, my, interpolation, BORDER_CONSTANT, Scalar::all(0));
     distorted.assign(out);
