@@ -166,7 +166,7 @@ TEST(AppFarm, SlurmClusterMakesTheSameVideoAsOneMachine) {
 }
 
 // Preemption: while the second render task of the array runs (its first frame written, its
-// last not yet), Slurm requeues it (`scontrol requeue`, what preemption with
+// last not yet), it is suspended and Slurm requeues it (`scontrol requeue`, what preemption with
 // PreemptMode=REQUEUE does); the task runs again, resumes its frames (its log says some were
 // already done), and the video is identical to one machine's.
 TEST(AppFarm, SlurmRequeuedTaskResumesToTheSameVideo) {
@@ -201,17 +201,26 @@ TEST(AppFarm, SlurmRequeuedTaskResumesToTheSameVideo) {
             continue;
         const auto q = run(env + "squeue -h -t R -j " + task + " -o %i");
         if (q.output.find(task) == std::string::npos) continue;
+        // Stop the task where it is (SIGSTOP) before requeueing it: a task that finished its
+        // last frame between the checks above and the requeue would let the assembly run
+        // first (a race seen once in Release). A suspended job is requeued all the same.
+        const auto sus = run(env + "scontrol suspend " + task);
+        if (sus.code != 0) continue;  // it left the running state meanwhile: look again
         const double t_rq =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const auto rq = run(env + "scontrol requeue " + task);
         ASSERT_EQ(rq.code, 0) << rq.output;
         // Slurm holds a requeued job back (pending, reason BeginTime: two minutes measured
-        // here) once the killed run has completed; let it start again at once
+        // here; or held, JobHeldAdmin, when it was suspended) once the killed run has
+        // completed; let it start again at once
         bool restarted = false;
         for (int k = 0; k < 300 && !restarted; ++k) {
             const auto st = run(env + "squeue -h -j " + task + " -o '%T %r'");
             if (st.output.find("BeginTime") != std::string::npos)
                 run(env + "scontrol update JobId=" + task + " StartTime=now");
+            // a job requeued while suspended is held (reason JobHeldAdmin): release it
+            if (st.output.find("JobHeld") != std::string::npos)
+                run(env + "scontrol release " + task);
             restarted = st.output.find("RUNNING") != std::string::npos ||
                         st.output.find_first_not_of(" \n") == std::string::npos;
             std::this_thread::sleep_for(std::chrono::milliseconds(100));
