@@ -13,6 +13,9 @@
 #include <ceres/rotation.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#ifdef VBME_HAVE_XIMGPROC
+#include <opencv2/ximgproc/fast_line_detector.hpp>
+#endif
 
 namespace cv {
 namespace vbme {
@@ -169,7 +172,7 @@ bool refitPiece(const Mat& gx, const Mat& gy, Piece& pc, double reach) {
 }  // namespace
 
 void detectSegmentsMerged(const Mat& gray, const VanishingPointCalibrator::Params& p,
-                          std::vector<Vec4f>& segments) {
+                          std::vector<Vec4f>& segments, std::vector<Vec4f>* with_fld) {
     // Three LSD passes after a 3×3 median (which removes the isolated bright and dark pixels
     // of render and sensor noise): on the image; on a smoothed copy at half resolution; on a
     // more smoothed copy at quarter resolution, where the soft shading edges of room corners,
@@ -180,42 +183,64 @@ void detectSegmentsMerged(const Mat& gray, const VanishingPointCalibrator::Param
     medianBlur(gray, g0, 3);
     std::vector<Vec4f> raw;
     const double scales[3] = {0.8, 0.5, 0.25}, blurs[3] = {0, 1.0, 2.0};
+    Mat blurred2;
     for (int k = 0; k < 3; ++k) {
         Mat src;
         if (blurs[k] > 0)
             GaussianBlur(g0, src, Size(), blurs[k]);
         else
             src = g0;
+        if (blurs[k] == 2.0) blurred2 = src;
         std::vector<Vec4f> r;
         createLineSegmentDetector(LSD_REFINE_STD, scales[k])->detect(src, r);
         raw.insert(raw.end(), r.begin(), r.end());
     }
     const double diag = std::hypot(gray.cols, gray.rows);
     const double minlen = p.min_segment_length > 0 ? p.min_segment_length : 0.03 * diag;
-    // Pieces shorter than a third of the threshold are texture; longer ones may join up.
-    std::vector<Piece> pieces;
-    for (const auto& s : raw) {
-        Piece pc{Vec2d(s[0], s[1]), Vec2d(s[2], s[3])};
-        if (pc.len() >= std::max(6.0, minlen / 3)) pieces.push_back(pc);
-    }
-    pieces = mergeCollinear(pieces);
+    Mat gx, gy;
     {
-        Mat gf, gx, gy;
+        Mat gf;
         GaussianBlur(g0, gf, Size(), 1.0);
         gf.convertTo(gf, CV_32F);
         Sobel(gf, gx, CV_32F, 1, 0, 3);
         Sobel(gf, gy, CV_32F, 0, 1, 3);
+    }
+    auto finish = [&](const std::vector<Vec4f>& rw, bool merge_again, std::vector<Vec4f>& out) {
+        // Pieces shorter than a third of the threshold are texture; longer ones may join up.
+        std::vector<Piece> pieces;
+        for (const auto& s : rw) {
+            Piece pc{Vec2d(s[0], s[1]), Vec2d(s[2], s[3])};
+            if (pc.len() >= std::max(6.0, minlen / 3)) pieces.push_back(pc);
+        }
+        pieces = mergeCollinear(pieces);
         for (auto& pc : pieces)
             refitPiece(gx, gy, pc, 3.0);
+        if (merge_again) pieces = mergeCollinear(pieces);
+        out.clear();
+        for (const auto& pc : pieces)
+            if (pc.len() >= minlen)
+                out.emplace_back((float)pc.p[0], (float)pc.p[1], (float)pc.q[0], (float)pc.q[1]);
+        std::stable_sort(out.begin(), out.end(), [](const Vec4f& a, const Vec4f& b) {
+            return std::hypot(a[2] - a[0], a[3] - a[1]) > std::hypot(b[2] - b[0], b[3] - b[1]);
+        });
+        if ((int)out.size() > p.max_segments) out.resize(p.max_segments);
+    };
+    finish(raw, false, segments);
+    if (with_fld) {
+        with_fld->clear();
+#ifdef VBME_HAVE_XIMGPROC
+        // FastLineDetector (Canny edges, then straight runs of edge pixels) on the σ = 2 copy
+        // of LSD's third pass, at full resolution: it follows long faint edges LSD's gradient
+        // test breaks up in noisy images. Its pieces join the LSD pieces in the same merge and
+        // refit; a second merge after the refit joins duplicates the refit brought onto one
+        // edge. (Canny 20/40; session 9 measured 10/20 … 30/60 and σ 1.5 … 2.5 as well.)
+        std::vector<Vec4f> r;
+        ximgproc::createFastLineDetector(10, 1.414213562f, 20, 40, 3, false)->detect(blurred2, r);
+        std::vector<Vec4f> rw = raw;
+        rw.insert(rw.end(), r.begin(), r.end());
+        finish(rw, true, *with_fld);
+#endif
     }
-    segments.clear();
-    for (const auto& pc : pieces)
-        if (pc.len() >= minlen)
-            segments.emplace_back((float)pc.p[0], (float)pc.p[1], (float)pc.q[0], (float)pc.q[1]);
-    std::stable_sort(segments.begin(), segments.end(), [](const Vec4f& a, const Vec4f& b) {
-        return std::hypot(a[2] - a[0], a[3] - a[1]) > std::hypot(b[2] - b[0], b[3] - b[1]);
-    });
-    if ((int)segments.size() > p.max_segments) segments.resize(p.max_segments);
 }
 
 namespace {
@@ -804,6 +829,78 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Siz
         ranked.push_back(mp);
     }
     return ranked;
+}
+
+namespace {
+
+/** Two proposals' frames are the same: focal lengths within 5 % and every direction of one
+within 3° of a direction of the other. */
+bool sameCalibration(const FrameCalibration& x, const FrameCalibration& y) {
+    if (std::abs(std::log(x.focal() / y.focal())) > 0.05) return false;
+    const Matx33d Kx = x.K.inv(), Ky = y.K.inv();
+    const double c = std::cos(3.0 * CV_PI / 180);
+    for (int k = 0; k < 3; ++k) {
+        const Vec3d dx = normalize(Kx * x.vanishing_points[k]);
+        double best = 0;
+        for (int l = 0; l < 3; ++l)
+            best = std::max(best, std::abs(dx.dot(normalize(Ky * y.vanishing_points[l]))));
+        if (best < c) return false;
+    }
+    return true;
+}
+
+}  // namespace
+
+std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
+                                                const VanishingPointCalibrator::Params& p,
+                                                int max_proposals) {
+    std::vector<Vec4f> segs, segs_fld;
+    detectSegmentsMerged(gray, p, segs, p.fld_pass ? &segs_fld : nullptr);
+    if (segs_fld.empty()) return searchManhattan(segs, gray.size(), p, max_proposals);
+    // The search is chaotic in its segments: a few segments of the weakest direction decide
+    // which frame wins, so two slightly different segment sets can give different frames.
+    // The FLD pass is a second opinion: agreement keeps the LSD pass's answer (and its
+    // confidence); disagreement means at least one of the two is wrong, so the FLD pass's
+    // frame (it sees the long faint edges LSD misses) is returned with half the confidence
+    // and the LSD pass's frame as the next proposal.
+    std::vector<ManhattanProposal> a, b;
+    std::string err;
+    try {
+        a = searchManhattan(segs, gray.size(), p, max_proposals);
+    } catch (const cv::Exception& e) {
+        err = e.err;
+    }
+    try {
+        b = searchManhattan(segs_fld, gray.size(), p, max_proposals);
+    } catch (const cv::Exception& e) {
+        if (err.empty()) err = e.err;
+    }
+    if (a.empty() && b.empty()) CV_Error(Error::StsError, err);
+    if (b.empty()) return a;
+    if (a.empty()) return b;  // (answered only with the FLD segments; not seen on the set)
+    if (sameCalibration(a[0].calibration, b[0].calibration)) return a;
+    // ... unless only the LSD frame would pass detect()'s confidence test.
+    if (b[0].calibration.confidence < p.min_confidence &&
+        a[0].calibration.confidence >= p.min_confidence)
+        std::swap(a, b);
+    std::vector<ManhattanProposal> out = b;
+    for (auto& m : out) {
+        m.confidence *= 0.5;
+        m.note = (m.note.empty() ? "" : m.note + "; ") +
+                 "the LSD and LSD + FastLineDetector segments give different frames";
+    }
+    bool listed = false;
+    for (const auto& m : out)
+        listed = listed || sameCalibration(m.calibration, a[0].calibration);
+    if (!listed) {
+        ManhattanProposal alt = a[0];
+        alt.confidence *= 0.5;
+        alt.ambiguous = false;
+        alt.note = "first frame of the other segment pass (LSD alone or with FastLineDetector)";
+        out.insert(out.begin() + 1, alt);
+        if ((int)out.size() > max_proposals) out.resize(std::max(1, max_proposals));
+    }
+    return out;
 }
 
 double refineManhattanFrameFrom(const std::vector<Vec4f>& px, Size size,

@@ -15,9 +15,19 @@ namespace detail {
 Mat toGray8(InputArray image);
 
 /** LSD segments with collinear pieces merged, at least the minimum length, longest first,
-at most params.max_segments. */
+at most params.max_segments. If @p with_fld is given (and OpenCV's ximgproc is available), it
+receives the same set made with FastLineDetector's segments added (see proposeManhattan). */
 void detectSegmentsMerged(const Mat& gray, const VanishingPointCalibrator::Params& params,
-                          std::vector<Vec4f>& segments);
+                          std::vector<Vec4f>& segments, std::vector<Vec4f>* with_fld = nullptr);
+
+/** Segments and GLOBAL search as detectManhattanProposals() does it: with
+params.fld_pass, the search runs on the LSD segments and on the LSD + FastLineDetector
+segments; when the two first frames agree, the LSD pass's proposals are returned; when they
+disagree, the FLD pass's, every confidence halved and the LSD pass's first frame kept as the
+second proposal. */
+std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
+                                                const VanishingPointCalibrator::Params& params,
+                                                int max_proposals);
 
 /** The GLOBAL search on given segments (pixels); proposals best first. Throws with the
 reason when none is plausible. */

@@ -384,6 +384,7 @@ void VanishingPointCalibrator::Params::read(const FileNode& node) {
     in("focal_prior", focal_prior);
     in("focal_prior_sigma", focal_prior_sigma);
     in("estimate_distortion", estimate_distortion);
+    in("fld_pass", fld_pass);
     in.finish();
     check();
 }
@@ -419,6 +420,7 @@ void VanishingPointCalibrator::Params::write(FileStorage& fs) const {
     fs << "method" << (method == RANSAC ? "ransac" : "global");
     fs << "focal_prior" << focal_prior << "focal_prior_sigma" << focal_prior_sigma;
     fs << "estimate_distortion" << (int)estimate_distortion;
+    fs << "fld_pass" << (int)fld_pass;
 }
 
 Point2d undistortPointK1(const Point2d& p, double f, const Point2d& c, double k1) {
@@ -444,10 +446,7 @@ std::vector<ManhattanProposal> detectManhattanProposals(
     InputArray image, const VanishingPointCalibrator::Params& params, int max_proposals) {
     VanishingPointCalibrator::Params p = params;
     p.method = VanishingPointCalibrator::Params::GLOBAL;
-    const Mat gray = detail::toGray8(image);
-    std::vector<Vec4f> segs;
-    detail::detectSegmentsMerged(gray, p, segs);
-    return detail::searchManhattan(segs, gray.size(), p, max_proposals);
+    return detail::proposeManhattan(detail::toGray8(image), p, max_proposals);
 }
 
 namespace {
@@ -605,10 +604,9 @@ public:
 
     FrameCalibration detect(InputArray image) const override {
         const Size size = image.size();
-        std::vector<Vec4f> segs;
-        detectSegments(image, segs);
         if (p_.method == Params::GLOBAL) {
-            FrameCalibration out = detail::searchManhattan(segs, size, p_, 1)[0].calibration;
+            FrameCalibration out =
+                detail::proposeManhattan(detail::toGray8(image), p_, 1)[0].calibration;
             if (out.confidence < p_.min_confidence)
                 CV_Error(Error::StsError,
                          format("automatic detection is not confident (%.2f < %.2f: %d/%d/%d "
@@ -617,6 +615,8 @@ public:
                                 out.support[2]));
             return out;
         }
+        std::vector<Vec4f> segs;
+        detectSegments(image, segs);
         const int n = (int)segs.size();
         if (n < 6)
             CV_Error(Error::StsError,
