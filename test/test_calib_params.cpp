@@ -31,6 +31,7 @@ VanishingPointCalibrator::Params changedVp() {
     p.focal_prior = 600;
     p.focal_prior_sigma = 0.2;
     p.estimate_distortion = true;
+    p.fld_pass = false;
     return p;
 }
 
