@@ -4,7 +4,11 @@
 // from annotated lines.
 #include <benchmark/benchmark.h>
 
+#include <fstream>
+#include <sstream>
+
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/vbme/calib.hpp>
 #include <opencv2/vbme/datasets/room.hpp>
 
@@ -74,6 +78,54 @@ void BM_ProposalsWithDistortion(benchmark::State& state) {
     }
 }
 BENCHMARK(BM_ProposalsWithDistortion)->Unit(benchmark::kMillisecond);
+
+// The 26 undistorted Blender renders of test/data/calib_rooms (640×480), one image per
+// iteration in turn: what `--auto` costs on realistic images. Arg 0: the FastLineDetector pass
+// off (LSD segments only); 1: the default (FLD pass when the LSD pass's first proposal's
+// confidence is below Params::fld_pass_below_confidence); 2: the FLD pass on every image.
+void BM_AutoCalibrateRenderedRooms(benchmark::State& state) {
+    static const std::vector<Mat> imgs = [] {
+        std::vector<Mat> v;
+        const std::string dir = std::string(VBME_TEST_DATA_DIR) + "/calib_rooms/";
+        std::ifstream in(dir + "truth.csv");
+        std::string line;
+        std::getline(in, line);
+        while (std::getline(in, line)) {
+            std::vector<std::string> t;
+            std::stringstream ss(line);
+            for (std::string x; std::getline(ss, x, ',');)
+                t.push_back(x);
+            if (t.size() < 8 || std::stod(t[7]) != 0) continue;  // k1 ≠ 0: not in the set
+            Mat img = imread(dir + t[0], IMREAD_COLOR);
+            if (!img.empty()) v.push_back(img);
+        }
+        return v;
+    }();
+    if (imgs.empty()) {
+        state.SkipWithError("test/data/calib_rooms not found");
+        return;
+    }
+    VanishingPointCalibrator::Params p;
+    p.fld_pass = state.range(0) > 0;
+    if (state.range(0) == 2) p.fld_pass_below_confidence = 2;
+    size_t i = 0, refused = 0;
+    for (auto _ : state) {
+        try {
+            auto props = detectManhattanProposals(imgs[i % imgs.size()], p, 3);
+            benchmark::DoNotOptimize(props.data());
+        } catch (const cv::Exception&) {
+            ++refused;
+        }
+        ++i;
+    }
+    state.SetLabel(format("%d images, %d refused calls", (int)imgs.size(), (int)refused));
+}
+BENCHMARK(BM_AutoCalibrateRenderedRooms)
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->Iterations(52)
+    ->Unit(benchmark::kMillisecond);
 
 void BM_LineSegments(benchmark::State& state) {
     const Mat img = benchImage(Size(640, 480));

@@ -32,6 +32,7 @@ VanishingPointCalibrator::Params changedVp() {
     p.focal_prior_sigma = 0.2;
     p.estimate_distortion = true;
     p.fld_pass = false;
+    p.fld_pass_below_confidence = 0.8;
     return p;
 }
 

@@ -171,8 +171,8 @@ bool refitPiece(const Mat& gx, const Mat& gy, Piece& pc, double reach) {
 
 }  // namespace
 
-void detectSegmentsMerged(const Mat& gray, const VanishingPointCalibrator::Params& p,
-                          std::vector<Vec4f>& segments, std::vector<Vec4f>* with_fld) {
+MergedSegments::MergedSegments(const Mat& gray, const VanishingPointCalibrator::Params& p)
+    : max_segments_(p.max_segments) {
     // Three LSD passes after a 3×3 median (which removes the isolated bright and dark pixels
     // of render and sensor noise): on the image; on a smoothed copy at half resolution; on a
     // more smoothed copy at quarter resolution, where the soft shading edges of room corners,
@@ -181,66 +181,73 @@ void detectSegmentsMerged(const Mat& gray, const VanishingPointCalibrator::Param
     // segment's line refitted at full resolution (refitPiece).
     Mat g0;
     medianBlur(gray, g0, 3);
-    std::vector<Vec4f> raw;
     const double scales[3] = {0.8, 0.5, 0.25}, blurs[3] = {0, 1.0, 2.0};
-    Mat blurred2;
     for (int k = 0; k < 3; ++k) {
         Mat src;
         if (blurs[k] > 0)
             GaussianBlur(g0, src, Size(), blurs[k]);
         else
             src = g0;
-        if (blurs[k] == 2.0) blurred2 = src;
+        if (blurs[k] == 2.0) blurred2_ = src;
         std::vector<Vec4f> r;
         createLineSegmentDetector(LSD_REFINE_STD, scales[k])->detect(src, r);
-        raw.insert(raw.end(), r.begin(), r.end());
+        raw_.insert(raw_.end(), r.begin(), r.end());
     }
     const double diag = std::hypot(gray.cols, gray.rows);
-    const double minlen = p.min_segment_length > 0 ? p.min_segment_length : 0.03 * diag;
-    Mat gx, gy;
-    {
-        Mat gf;
-        GaussianBlur(g0, gf, Size(), 1.0);
-        gf.convertTo(gf, CV_32F);
-        Sobel(gf, gx, CV_32F, 1, 0, 3);
-        Sobel(gf, gy, CV_32F, 0, 1, 3);
+    minlen_ = p.min_segment_length > 0 ? p.min_segment_length : 0.03 * diag;
+    Mat gf;
+    GaussianBlur(g0, gf, Size(), 1.0);
+    gf.convertTo(gf, CV_32F);
+    Sobel(gf, gx_, CV_32F, 1, 0, 3);
+    Sobel(gf, gy_, CV_32F, 0, 1, 3);
+}
+
+std::vector<Vec4f> MergedSegments::finish(const std::vector<Vec4f>& raw, bool merge_again) const {
+    // Pieces shorter than a third of the threshold are texture; longer ones may join up.
+    std::vector<Piece> pieces;
+    for (const auto& s : raw) {
+        Piece pc{Vec2d(s[0], s[1]), Vec2d(s[2], s[3])};
+        if (pc.len() >= std::max(6.0, minlen_ / 3)) pieces.push_back(pc);
     }
-    auto finish = [&](const std::vector<Vec4f>& rw, bool merge_again, std::vector<Vec4f>& out) {
-        // Pieces shorter than a third of the threshold are texture; longer ones may join up.
-        std::vector<Piece> pieces;
-        for (const auto& s : rw) {
-            Piece pc{Vec2d(s[0], s[1]), Vec2d(s[2], s[3])};
-            if (pc.len() >= std::max(6.0, minlen / 3)) pieces.push_back(pc);
-        }
-        pieces = mergeCollinear(pieces);
-        for (auto& pc : pieces)
-            refitPiece(gx, gy, pc, 3.0);
-        if (merge_again) pieces = mergeCollinear(pieces);
-        out.clear();
-        for (const auto& pc : pieces)
-            if (pc.len() >= minlen)
-                out.emplace_back((float)pc.p[0], (float)pc.p[1], (float)pc.q[0], (float)pc.q[1]);
-        std::stable_sort(out.begin(), out.end(), [](const Vec4f& a, const Vec4f& b) {
-            return std::hypot(a[2] - a[0], a[3] - a[1]) > std::hypot(b[2] - b[0], b[3] - b[1]);
-        });
-        if ((int)out.size() > p.max_segments) out.resize(p.max_segments);
-    };
-    finish(raw, false, segments);
-    if (with_fld) {
-        with_fld->clear();
+    pieces = mergeCollinear(pieces);
+    for (auto& pc : pieces)
+        refitPiece(gx_, gy_, pc, 3.0);
+    if (merge_again) pieces = mergeCollinear(pieces);
+    std::vector<Vec4f> out;
+    for (const auto& pc : pieces)
+        if (pc.len() >= minlen_)
+            out.emplace_back((float)pc.p[0], (float)pc.p[1], (float)pc.q[0], (float)pc.q[1]);
+    std::stable_sort(out.begin(), out.end(), [](const Vec4f& a, const Vec4f& b) {
+        return std::hypot(a[2] - a[0], a[3] - a[1]) > std::hypot(b[2] - b[0], b[3] - b[1]);
+    });
+    if ((int)out.size() > max_segments_) out.resize(max_segments_);
+    return out;
+}
+
+std::vector<Vec4f> MergedSegments::lsd() const {
+    return finish(raw_, false);
+}
+
+std::vector<Vec4f> MergedSegments::withFld() const {
 #ifdef VBME_HAVE_XIMGPROC
-        // FastLineDetector (Canny edges, then straight runs of edge pixels) on the σ = 2 copy
-        // of LSD's third pass, at full resolution: it follows long faint edges LSD's gradient
-        // test breaks up in noisy images. Its pieces join the LSD pieces in the same merge and
-        // refit; a second merge after the refit joins duplicates the refit brought onto one
-        // edge. (Canny 20/40; session 9 measured 10/20 … 30/60 and σ 1.5 … 2.5 as well.)
-        std::vector<Vec4f> r;
-        ximgproc::createFastLineDetector(10, 1.414213562f, 20, 40, 3, false)->detect(blurred2, r);
-        std::vector<Vec4f> rw = raw;
-        rw.insert(rw.end(), r.begin(), r.end());
-        finish(rw, true, *with_fld);
+    // FastLineDetector (Canny edges, then straight runs of edge pixels) on the σ = 2 copy of
+    // LSD's third pass, at full resolution: it follows long faint edges LSD's gradient test
+    // breaks up in noisy images. Its pieces join the LSD pieces in the same merge and refit; a
+    // second merge after the refit joins duplicates the refit brought onto one edge. (Canny
+    // 20/40; session 9 measured 10/20 … 30/60 and σ 1.5 … 2.5 as well: doc/vbme_calib.md.)
+    std::vector<Vec4f> r;
+    ximgproc::createFastLineDetector(10, 1.414213562f, 20, 40, 3, false)->detect(blurred2_, r);
+    std::vector<Vec4f> rw = raw_;
+    rw.insert(rw.end(), r.begin(), r.end());
+    return finish(rw, true);
+#else
+    return {};
 #endif
-    }
+}
+
+void detectSegmentsMerged(const Mat& gray, const VanishingPointCalibrator::Params& p,
+                          std::vector<Vec4f>& segments) {
+    segments = MergedSegments(gray, p).lsd();
 }
 
 namespace {
@@ -854,15 +861,15 @@ bool sameCalibration(const FrameCalibration& x, const FrameCalibration& y) {
 std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
                                                 const VanishingPointCalibrator::Params& p,
                                                 int max_proposals) {
-    std::vector<Vec4f> segs, segs_fld;
-    detectSegmentsMerged(gray, p, segs, p.fld_pass ? &segs_fld : nullptr);
-    if (segs_fld.empty()) return searchManhattan(segs, gray.size(), p, max_proposals);
+    const MergedSegments ms(gray, p);
+    const std::vector<Vec4f> segs = ms.lsd();
     // The search is chaotic in its segments: a few segments of the weakest direction decide
     // which frame wins, so two slightly different segment sets can give different frames.
-    // The FLD pass is a second opinion: agreement keeps the LSD pass's answer (and its
-    // confidence); disagreement means at least one of the two is wrong, so the FLD pass's
-    // frame (it sees the long faint edges LSD misses) is returned with half the confidence
-    // and the LSD pass's frame as the next proposal.
+    // The FLD pass is a second opinion, asked for when the LSD pass's first proposal is not
+    // confident: agreement keeps the LSD pass's answer (and its confidence); disagreement
+    // means at least one of the two is wrong, so the FLD pass's frame (it sees the long faint
+    // edges LSD misses) is returned with half the confidence and the LSD pass's frame as the
+    // next proposal.
     std::vector<ManhattanProposal> a, b;
     std::string err;
     try {
@@ -870,14 +877,21 @@ std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
     } catch (const cv::Exception& e) {
         err = e.err;
     }
-    try {
-        b = searchManhattan(segs_fld, gray.size(), p, max_proposals);
-    } catch (const cv::Exception& e) {
-        if (err.empty()) err = e.err;
+    if (!p.fld_pass || (!a.empty() && a[0].confidence >= p.fld_pass_below_confidence)) {
+        if (a.empty()) CV_Error(Error::StsError, err);
+        return a;
+    }
+    const std::vector<Vec4f> segs_fld = ms.withFld();
+    if (!segs_fld.empty()) {
+        try {
+            b = searchManhattan(segs_fld, gray.size(), p, max_proposals);
+        } catch (const cv::Exception& e) {
+            if (err.empty()) err = e.err;
+        }
     }
     if (a.empty() && b.empty()) CV_Error(Error::StsError, err);
     if (b.empty()) return a;
-    if (a.empty()) return b;  // (answered only with the FLD segments; not seen on the set)
+    if (a.empty()) return b;
     if (sameCalibration(a[0].calibration, b[0].calibration)) return a;
     // ... unless only the LSD frame would pass detect()'s confidence test.
     if (b[0].calibration.confidence < p.min_confidence &&

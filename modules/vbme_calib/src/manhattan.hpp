@@ -14,17 +14,34 @@ namespace detail {
 /** 8-bit gray copy (or view) of an 8/16-bit gray/BGR/BGRA image; throws when empty. */
 Mat toGray8(InputArray image);
 
-/** LSD segments with collinear pieces merged, at least the minimum length, longest first,
-at most params.max_segments. If @p with_fld is given (and OpenCV's ximgproc is available), it
-receives the same set made with FastLineDetector's segments added (see proposeManhattan). */
-void detectSegmentsMerged(const Mat& gray, const VanishingPointCalibrator::Params& params,
-                          std::vector<Vec4f>& segments, std::vector<Vec4f>* with_fld = nullptr);
+/** The GLOBAL search's segments of one image: the LSD passes and the gradients are computed
+once; lsd() merges and refits the LSD pieces, withFld() the same with FastLineDetector's
+pieces added (empty without OpenCV's ximgproc). Both: at least the minimum length, longest
+first, at most params.max_segments. */
+class MergedSegments {
+public:
+    MergedSegments(const Mat& gray, const VanishingPointCalibrator::Params& params);
+    std::vector<Vec4f> lsd() const;
+    std::vector<Vec4f> withFld() const;
 
-/** Segments and GLOBAL search as detectManhattanProposals() does it: with
-params.fld_pass, the search runs on the LSD segments and on the LSD + FastLineDetector
-segments; when the two first frames agree, the LSD pass's proposals are returned; when they
-disagree, the FLD pass's, every confidence halved and the LSD pass's first frame kept as the
-second proposal. */
+private:
+    std::vector<Vec4f> finish(const std::vector<Vec4f>& raw, bool merge_again) const;
+    std::vector<Vec4f> raw_;
+    Mat blurred2_, gx_, gy_;
+    double minlen_ = 0;
+    int max_segments_ = 0;
+};
+
+/** LSD segments with collinear pieces merged (MergedSegments::lsd()). */
+void detectSegmentsMerged(const Mat& gray, const VanishingPointCalibrator::Params& params,
+                          std::vector<Vec4f>& segments);
+
+/** Segments and GLOBAL search as detectManhattanProposals() does it: the search runs on the
+LSD segments; with params.fld_pass, when its first proposal's confidence is below
+params.fld_pass_below_confidence (or it found none), again on the LSD + FastLineDetector
+segments. When the two first frames agree, the LSD pass's proposals are returned; when they
+disagree, the FLD pass's (unless only the LSD frame reaches params.min_confidence), every
+confidence halved and the other pass's first frame kept as the second proposal. */
 std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
                                                 const VanishingPointCalibrator::Params& params,
                                                 int max_proposals);

@@ -385,6 +385,7 @@ void VanishingPointCalibrator::Params::read(const FileNode& node) {
     in("focal_prior_sigma", focal_prior_sigma);
     in("estimate_distortion", estimate_distortion);
     in("fld_pass", fld_pass);
+    in("fld_pass_below_confidence", fld_pass_below_confidence);
     in.finish();
     check();
 }
@@ -406,6 +407,8 @@ void VanishingPointCalibrator::Params::check() const {
                "GLOBAL (0) or RANSAC (1)");
     checkParam(focal_prior >= 0, w, "focal_prior", focal_prior, ">= 0 pixels (0: none)");
     checkParam(focal_prior_sigma > 0, w, "focal_prior_sigma", focal_prior_sigma, "> 0");
+    checkParam(fld_pass_below_confidence >= 0 && std::isfinite(fld_pass_below_confidence), w,
+               "fld_pass_below_confidence", fld_pass_below_confidence, ">= 0 (above 1: always)");
 }
 
 void VanishingPointCalibrator::Params::write(FileStorage& fs) const {
@@ -420,7 +423,7 @@ void VanishingPointCalibrator::Params::write(FileStorage& fs) const {
     fs << "method" << (method == RANSAC ? "ransac" : "global");
     fs << "focal_prior" << focal_prior << "focal_prior_sigma" << focal_prior_sigma;
     fs << "estimate_distortion" << (int)estimate_distortion;
-    fs << "fld_pass" << (int)fld_pass;
+    fs << "fld_pass" << (int)fld_pass << "fld_pass_below_confidence" << fld_pass_below_confidence;
 }
 
 Point2d undistortPointK1(const Point2d& p, double f, const Point2d& c, double k1) {

@@ -156,13 +156,18 @@ public:
         straightness of the lines and their meeting in the vanishing points (GLOBAL only). */
         bool estimate_distortion = false;
         /** @brief detection (GLOBAL): a second opinion from OpenCV's FastLineDetector @cite
-        Lee2014. The search runs twice, on the LSD segments and on the same with the FLD
-        segments of the σ = 2 smoothed image added (it finds long faint edges LSD misses in
-        noisy images). When the two first frames agree (focal within 5 %, directions within
-        3°), the LSD pass's proposals are returned unchanged; when they disagree, the FLD
-        pass's, with every confidence halved and the LSD pass's first frame as the second
-        proposal. Without OpenCV's ximgproc module it has no effect. */
+        Lee2014 when the first answer is not confident. The search runs on the LSD segments;
+        when its first proposal's confidence is below `fld_pass_below_confidence`, it runs
+        again on the same segments with the FLD segments of the σ = 2 smoothed image added (FLD
+        finds long faint edges LSD misses in noisy images). When the two first frames agree
+        (focal within 5 %, directions within 3°), the LSD pass's proposals are returned
+        unchanged; when they disagree, the FLD pass's (unless only the LSD frame reaches
+        `min_confidence`), with every confidence halved and the other pass's first frame as
+        the second proposal. Without OpenCV's ximgproc module it has no effect. */
         bool fld_pass = true;
+        /** @brief detection: the FLD pass runs when the LSD pass's first proposal's confidence
+        (ManhattanProposal::confidence) is below this (above 1: always). */
+        double fld_pass_below_confidence = 0.4;
 
         /** @brief Reads the fields present in @p node (others keep their values); an
         unknown key or a value check() refuses is an error. */
