@@ -209,7 +209,8 @@ struct CV_EXPORTS ManhattanProposal {
     double score = 0;
     /** @brief In [0, 1]: the frame's own quality (calibration.confidence) times its share of
     the frames' `calibration.confidence × (score / best score)⁸`; low when another frame scores
-    close. Proposals are ranked by that product. */
+    close. Proposals are ranked by that product. Halved when the LSD and the LSD +
+    FastLineDetector segment passes give different first frames (Params::fld_pass). */
     double confidence = 0;
     /** @brief Set on the first proposal and on every other reaching at least half its
     `calibration.confidence × (score / best score)⁸`, when there is such a second one: two
@@ -227,7 +228,10 @@ robust truncated-quadratic angular consensus @cite Torr2000); every pair of cand
 whose focal length follows from orthogonality with the principal point at the centre @cite
 Caprile1990; all pairs are scored, distinct frames are refined jointly (focal, rotation, optionally
 k1) with a Cauchy loss (Ceres), their focal length's uncertainty taken from the refinement's
-covariance, and ranked by confidence × consensus. The first proposal is what detect() returns.
+covariance, and ranked by confidence × consensus. When the first proposal's confidence is below
+Params::fld_pass_below_confidence, the search runs again with FastLineDetector segments added
+@cite Lee2014 and that pass's proposals replace these, at half the confidence, when its first
+frame differs (Params::fld_pass). The first proposal is what detect() returns.
 @param image 8-bit gray or BGR.
 @param params settings (method must be GLOBAL).
 @param max_proposals the most proposals returned (≥ 1).
