@@ -6,7 +6,9 @@
 #include "manhattan.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 #include <numeric>
 
 #include <ceres/ceres.h>
@@ -210,8 +212,18 @@ std::vector<Vec4f> MergedSegments::finish(const std::vector<Vec4f>& raw, bool me
         if (pc.len() >= std::max(6.0, minlen_ / 3)) pieces.push_back(pc);
     }
     pieces = mergeCollinear(pieces);
-    for (auto& pc : pieces)
+    // The refit depends on the piece alone: a piece the LSD set also had is refitted once.
+    for (auto& pc : pieces) {
+        const std::array<double, 4> key = {pc.p[0], pc.p[1], pc.q[0], pc.q[1]};
+        const auto it = refitted_.find(key);
+        if (it != refitted_.end()) {
+            pc.p = Vec2d(it->second[0], it->second[1]);
+            pc.q = Vec2d(it->second[2], it->second[3]);
+            continue;
+        }
         refitPiece(gx_, gy_, pc, 3.0);
+        refitted_.emplace(key, std::array<double, 4>{pc.p[0], pc.p[1], pc.q[0], pc.q[1]});
+    }
     if (merge_again) pieces = mergeCollinear(pieces);
     std::vector<Vec4f> out;
     for (const auto& pc : pieces)

@@ -3,6 +3,8 @@
 #ifndef VBME_CALIB_MANHATTAN_HPP
 #define VBME_CALIB_MANHATTAN_HPP
 
+#include <array>
+#include <map>
 #include <vector>
 
 #include "opencv2/vbme/calib/frame_calibration.hpp"
@@ -28,6 +30,9 @@ private:
     std::vector<Vec4f> finish(const std::vector<Vec4f>& raw, bool merge_again) const;
     std::vector<Vec4f> raw_;
     Mat blurred2_, gx_, gy_;
+    /** Refitted pieces by their endpoints before the refit (the refit depends on nothing
+    else): a merged piece both sets have is refitted once. */
+    mutable std::map<std::array<double, 4>, std::array<double, 4>> refitted_;
     double minlen_ = 0;
     int max_segments_ = 0;
 };
