@@ -48,6 +48,7 @@ struct BenchOptions {
     int ref_spp = 4096;         // insert: samples of the cached reference (0: no reference)
     int repeat = 3;             // render-peer, insert: interleaved rounds (the fastest counts)
     int max_depth = 4;          // render-peer: path length of both renderers
+    int path_batch = -1;        // render-peer: Renderer::Params::path_batch (-1: its default)
     int min_spp = 2;            // insert: adaptive sampling's minimum (vbme insert's default)
     int adaptive_max_spp = 0;   // insert: adaptive sampling's maximum (0: 4 × --spp, as insert)
     double error = 0.5;         // insert: adaptive sampling's target (8-bit display values)
@@ -449,11 +450,12 @@ void benchRenderPeer(const BenchOptions& o) {
     rp.max_depth = o.max_depth;
     rp.threads = threads;
     rp.aovs = false;
+    if (o.path_batch >= 0) rp.path_batch = o.path_batch;
     const Ptr<Renderer> r = Renderer::create(rp);
     std::printf(
-        "render-peer %dx%d, %d spp, path length %d, %d threads, %d rounds "
+        "render-peer %dx%d, %d spp, path length %d, %d threads, %d rounds, path batch %d "
         "(point-lit room with a sphere and a box):\n",
-        sz.width, sz.height, o.spp, o.max_depth, threads, o.repeat);
+        sz.width, sz.height, o.spp, o.max_depth, threads, o.repeat, rp.path_batch);
     std::vector<double> ratio_wall, ratio_cpu, ratio_cpu_fast;
     double best_v = 1e30, best_p = 1e30;
     RenderImages img, img_fast;
@@ -1254,6 +1256,10 @@ void setupBench(CLI::App& app) {
     app.add_option("--max-depth", o->max_depth, "render-peer: path length of both renderers")
         ->check(CLI::Range(1, 64))
         ->capture_default_str();
+    app.add_option("--path-batch", o->path_batch,
+                   "render-peer: paths of a pixel vbme advances together (0: one at a time; "
+                   "default: Renderer::Params' default)")
+        ->check(CLI::Range(0, 64));
     app.add_option("--min-spp", o->min_spp,
                    "insert: minimum samples of the adaptive variant (default: vbme insert's)")
         ->check(CLI::Range(1, 100000))

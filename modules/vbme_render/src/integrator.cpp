@@ -62,6 +62,7 @@ void Renderer::Params::read(const FileNode& fn) {
     in("texture_cone", texture_cone);
     in("adaptive_roulette", adaptive_roulette);
     in("adaptive_radius", adaptive_radius);
+    in("path_batch", path_batch);
     in.finish();
     check();
 }
@@ -86,6 +87,7 @@ void Renderer::Params::check() const {
     checkParam(adaptive_roulette >= 0 && adaptive_roulette <= 1, w, "adaptive_roulette",
                adaptive_roulette, "[0, 1]");
     checkParam(adaptive_radius >= 0, w, "adaptive_radius", adaptive_radius, ">= 0");
+    checkParam(path_batch >= 0, w, "path_batch", path_batch, ">= 0 (0, 1: one path at a time)");
 }
 
 void Renderer::Params::write(FileStorage& fs) const {
@@ -99,7 +101,7 @@ void Renderer::Params::write(FileStorage& fs) const {
     fs << "light_selection" << (light_selection == LIGHTS_POWER ? "power" : "uniform");
     fs << "adaptive_min_spp" << adaptive_min_spp << "adaptive_error" << adaptive_error;
     fs << "texture_cone" << texture_cone << "adaptive_roulette" << adaptive_roulette
-       << "adaptive_radius" << adaptive_radius;
+       << "adaptive_radius" << adaptive_radius << "path_batch" << path_batch;
 }
 
 namespace {
@@ -197,6 +199,62 @@ struct PathState {
     }
 };
 
+/** PixelSampler's numbers (bit for bit) for several samples of one pixel at once: the
+bit-reversed sample index (PixelSampler::setIndex keeps it) comes with each draw; the pixel's
+scramble seeds are hashed once and kept, as there. */
+class BatchSampler {
+public:
+    explicit BatchSampler(uint64 pixel_key) : key_(pixel_key) {}
+    static uint32_t reversedIndex(uint32_t index) { return sobol_detail::reverseBits(index); }
+    Vec2f get2D(uint32_t dim, uint32_t rindex) {
+        return sobol_detail::get2D(seeds(dim >> 1), rindex);
+    }
+    float get1D(uint32_t dim, uint32_t rindex) {
+        return sobol_detail::get1D(seeds(dim >> 1), rindex, dim & 1u);
+    }
+
+private:
+    static constexpr uint32_t kPairs = 48;
+    sobol_detail::PairSeeds seeds(uint32_t pair) {
+        if (pair >= kPairs) return sobol_detail::pairSeeds(key_, pair);
+        const uint64_t bit = uint64_t(1) << pair;
+        if (!(have_ & bit)) {
+            cache_[pair] = sobol_detail::pairSeeds(key_, pair);
+            have_ |= bit;
+        }
+        return cache_[pair];
+    }
+    uint64 key_;
+    uint64_t have_ = 0;
+    sobol_detail::PairSeeds cache_[kPairs];
+};
+
+/** One path of a batch (RendererImpl::traceBatch): its state, and what one stage of a vertex
+hands the next. */
+struct Lane {
+    PathState s;
+    PathInfo info;
+    uint32_t rindex = 0;  // bit-reversed sample index
+    SurfaceHit hit;
+    bool found = false;
+    // shading → continuation
+    const Bsdf* bsdf = nullptr;
+    sampling::Frame frame;
+    Vec3f wo, diffuse;
+    float eps = 0.f, cone_width = 0.f;
+    BsdfSample bs;
+    bool sampled = false, last = false;
+    // next-event estimation: the shadow ray and what its contribution needs
+    bool shadow = false, blocked = false;
+    int li = 0;
+    Vec3f so, wi_local, f;
+    float tfar = 0.f;
+    EmitterSample es;
+};
+
+/** The most paths RendererImpl::traceBatch advances together. */
+constexpr int kMaxBatch = 64;
+
 class RendererImpl : public Renderer {
 public:
     explicit RendererImpl(const Params& p) { setParams(p); }
@@ -236,6 +294,15 @@ private:
     Vec3f trace(const RenderSceneImpl& scene, const LightSelector& lights, PixelSampler& sampler,
                 PathState s, bool with_objects, bool track_objects, PathInfo& info, PathState* fork,
                 const CameraHit* camera_hit = nullptr) const;
+    /* Traces the paths of lanes[0 … n) (n ≤ kMaxBatch, all at depth 0, from lanes[k].s and
+    lanes[k].rindex) together, stage by stage: closest hits of all live paths, then the shading
+    of all, then their shadow rays, then their continuation. Every path does what trace() does
+    for it (no fork, no object tracking), in the same order: the same bits. @p camera_hits: the
+    camera rays' hits, traced ahead (or null). Leaves each radiance in lanes[k].s.L (0 if not
+    finite, as trace() returns). */
+    void traceBatch(const RenderSceneImpl& scene, const LightSelector& lights,
+                    BatchSampler& sampler, Lane* lanes, int n, bool with_objects,
+                    const CameraHit* camera_hits) const;
     RenderStats renderImpl(const RenderScene& scene, const Camera& camera, RenderImages& out,
                            RenderImages* without, Progress* progress) const;
     Params p_;
@@ -415,6 +482,185 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
     return L;
 }
 
+void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector& lights,
+                              BatchSampler& sampler, Lane* lanes, int n, bool with_objects,
+                              const CameraHit* camera_hits) const {
+    CV_DbgAssert(n >= 0 && n <= kMaxBatch);
+    const bool nee = p_.integrator == PATH;
+    const auto& emitters = scene.emitters();
+    const int n_lights = (int)emitters.size();
+    const bool hittable_emission = scene.hasHittableEmission();
+    int live[kMaxBatch], shaded[kMaxBatch];
+    int n_live = n;
+    for (int k = 0; k < n; ++k)
+        live[k] = k;
+
+    while (n_live > 0) {
+        // 1. The closest hit of every live path.
+        for (int j = 0; j < n_live; ++j) {
+            Lane& l = lanes[live[j]];
+            ++l.info.rays;
+            if (camera_hits && l.s.depth == 0) {  // the camera ray, already traced in a packet
+                const CameraHit& ch = camera_hits[live[j]];
+                l.found = ch.found;
+                if (l.found) l.hit = ch.hit;
+            } else {
+                l.found = scene.intersect(l.s.o, l.s.d, 0.f, kInf, l.hit, with_objects);
+            }
+        }
+        // 2. Shading: emission met, then the BSDF sample and the light sample with its shadow
+        // ray (as trace() does up to its shadow ray).
+        int n_shaded = 0;
+        for (int j = 0; j < n_live; ++j) {
+            Lane& l = lanes[live[j]];
+            PathState& s = l.s;
+            const int depth = s.depth;
+            const Vec3f& d = s.d;
+            Vec3f& L = s.L;
+            Vec3f& beta = s.beta;
+            const SurfaceHit& hit = l.hit;
+            if (!l.found) {
+                for (int li : scene.infiniteEmitters()) {
+                    const Emitter& e = *emitters[li];
+                    const Vec3f Le = e.radianceEscaped(d);
+                    if (isBlack(Le)) continue;
+                    float w = 1.f;
+                    if (nee && !s.prev_delta)
+                        w = powerHeuristic(1, s.prev_pdf, 1, lights.pmf[li] * e.pdfEscaped(d));
+                    L += mul(beta, Le) * w;
+                }
+                continue;  // the path ends
+            }
+            if (hit.kind == GeometryKind::OBJECT) {
+                l.info.touched_object = true;
+                if (depth == 0) l.info.sees_object = true;
+            }
+            const MaterialRec& m = scene.material(hit.geom_id, hit.prim_id);
+            l.cone_width = s.cone_width + s.cone_spread * hit.t;
+            l.diffuse =
+                s.filtered && m.texture
+                    ? m.diffuseFiltered(hit.uv,
+                                        l.cone_width * scene.uvPerLength(hit.geom_id, hit.prim_id))
+                    : m.diffuseAt(hit.uv);
+            if (depth == 0) {
+                l.info.albedo = l.diffuse;
+                l.info.normal = hit.ns;
+            }
+            const float cos_out = d.dot(hit.ng);
+            if (m.transmission && cos_out > 0.f && !isBlack(m.absorption)) {
+                for (int c = 0; c < 3; ++c)
+                    beta[c] *= std::exp(-m.absorption[c] * hit.t);
+            }
+            if (hit.kind == GeometryKind::LIGHT) {
+                const int li = scene.lightOf(hit.geom_id);
+                const Emitter& e = *emitters[li];
+                const Vec3f Le = e.radianceHit(d);
+                if (!isBlack(Le)) {
+                    float w = 1.f;
+                    if (nee && !s.prev_delta)
+                        w = powerHeuristic(1, s.prev_pdf, 1,
+                                           lights.pmf[li] * e.pdfHit(s.prev_p, d, hit.t));
+                    L += mul(beta, Le) * w;
+                }
+            }
+            if (m.emissive) L += mul(beta, m.emissionAt(hit.uv));
+            if (depth >= p_.max_depth) continue;  // the path ends
+
+            l.eps = RenderSceneImpl::epsilon(hit.p);
+            l.frame = sampling::Frame(hit.ns);
+            l.wo = l.frame.toLocal(-d);
+            l.bsdf = m.bsdf.get();
+            const bool nee_here = nee && n_lights > 0 && !m.is_delta;
+            const Vec2f u_sel_lobe =
+                (nee_here && n_lights > 1) || !m.single_lobe
+                    ? sampler.get2D(PathDims::dim(depth, PathDims::kLightSelect), l.rindex)
+                    : Vec2f(0.f, 0.f);
+            l.last = depth + 1 >= p_.max_depth && nee && !hittable_emission;
+            l.sampled = false;
+            if (!l.last) {
+                const Vec2f ud = sampler.get2D(PathDims::dim(depth, PathDims::kBsdfDir), l.rindex);
+                l.sampled = l.bsdf->sample(l.wo, ud, u_sel_lobe[1], l.diffuse, l.bs);
+            }
+            l.shadow = false;
+            if (nee_here) {
+                const float ul = u_sel_lobe[0];
+                const int li = n_lights > 1 ? lights.select(ul) : 0;
+                const Vec2f u =
+                    lights.delta[li]
+                        ? Vec2f(0.f, 0.f)
+                        : sampler.get2D(PathDims::dim(depth, PathDims::kLightPos), l.rindex);
+                EmitterSample& es = l.es;
+                if (emitters[li]->sample(hit.p, u, es) && es.pdf > 0.f && !isBlack(es.L)) {
+                    l.wi_local = l.frame.toLocal(es.wi);
+                    l.f = l.bsdf->eval(l.wo, l.wi_local, l.diffuse);
+                    if (!isBlack(l.f)) {
+                        const float side = es.wi.dot(hit.ng) > 0.f ? 1.f : -1.f;
+                        l.so = hit.p + hit.ng * (side * l.eps);
+                        l.tfar = std::isinf(es.dist) ? kInf : es.dist * (1.f - 1e-4f) - l.eps;
+                        ++l.info.rays;
+                        l.li = li;
+                        l.shadow = true;
+                    }
+                }
+            }
+            shaded[n_shaded++] = live[j];
+        }
+        // 3. The shadow rays.
+        for (int j = 0; j < n_shaded; ++j) {
+            Lane& l = lanes[shaded[j]];
+            if (l.shadow)
+                l.blocked = l.tfar > 0.f && scene.occluded(l.so, l.es.wi, 0.f, l.tfar, with_objects);
+        }
+        // 4. The light's contribution, then the next ray (or the end of the path).
+        n_live = 0;
+        for (int j = 0; j < n_shaded; ++j) {
+            Lane& l = lanes[shaded[j]];
+            PathState& s = l.s;
+            const int depth = s.depth;
+            Vec3f& beta = s.beta;
+            const SurfaceHit& hit = l.hit;
+            if (l.shadow && l.tfar > 0.f && !l.blocked) {
+                const EmitterSample& es = l.es;
+                const float light_pdf = lights.pmf[l.li] * es.pdf;
+                const float w = es.delta ? 1.f
+                                         : powerHeuristic(1, light_pdf, 1,
+                                                          l.bsdf->pdf(l.wo, l.wi_local, l.diffuse));
+                s.L += mul(beta, mul(l.f, es.L)) * (std::abs(l.wi_local[2]) * w / light_pdf);
+            }
+            const BsdfSample& bs = l.bs;
+            if (l.last || !l.sampled) continue;
+            if (isBlack(bs.weight) || !(bs.pdf > 0.f)) continue;
+            beta = mul(beta, bs.weight);
+            Vec3f wi = l.frame.toWorld(bs.wi);
+            wi *= 1.f / std::sqrt(wi.dot(wi));
+            s.prev_pdf = bs.pdf;
+            s.prev_delta = bs.delta;
+            s.prev_p = hit.p;
+            s.cone_width = l.cone_width;
+            if (!bs.delta && p_.texture_cone > 0.f) {
+                s.cone_spread = std::max(s.cone_spread, p_.texture_cone);
+                s.filtered = true;
+            }
+            const float side = wi.dot(hit.ng) > 0.f ? 1.f : -1.f;
+            s.o = hit.p + hit.ng * (side * l.eps);
+            s.d = wi;
+            if (depth + 1 >= p_.rr_depth) {
+                const float q = std::max(0.05f, 1.f - maxComp(beta));
+                const float ur = sampler.get1D(PathDims::dim(depth, PathDims::kRoulette), l.rindex);
+                if (ur < q) continue;
+                beta *= 1.f / (1.f - q);
+            }
+            ++s.depth;
+            live[n_live++] = shaded[j];
+        }
+    }
+    for (int k = 0; k < n; ++k) {
+        const Vec3f& L = lanes[k].s.L;
+        if (!(std::isfinite(L[0]) && std::isfinite(L[1]) && std::isfinite(L[2])))
+            lanes[k].s.L = Vec3f(0, 0, 0);
+    }
+}
+
 RenderStats RendererImpl::render(const RenderScene& scene_in, const Camera& camera,
                                  RenderImages& out, Progress* progress) const {
     return renderImpl(scene_in, camera, out, nullptr, progress);
@@ -503,8 +749,13 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
     std::vector<Pilot> pilot(adaptive ? size_t(sz.area()) : 0);
     std::vector<uint8_t> near_touched(adaptive ? size_t(sz.area()) : 0, 0);
     int phase = adaptive ? 0 : 1;
+    // Paths of a pixel in batches (traceBatch) where no path must note the objects it meets.
+    const bool batched = p_.path_batch > 1 && !differential && !track_objects;
+    const uint32_t batch = (uint32_t)std::min(p_.path_batch, kMaxBatch);
     auto renderTile = [&](int tile) {
         const int x0 = (tile % tiles_x) * ts, y0 = (tile / tiles_x) * ts;
+        std::vector<Lane> lanes(batched ? batch : 0);
+        std::vector<CameraHit> batch_hits(batched ? batch : 0);
         const int x1 = std::min(x0 + ts, sz.width), y1 = std::min(y0 + ts, sz.height);
         int64 tile_rays = 0, tile_paths = 0, tile_untouched = 0;
         for (int y = y0; y < y1; ++y) {
@@ -525,7 +776,75 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                 SurfaceHit cam_hit[kPacket];
                 bool cam_found[kPacket];
                 uint32_t packet_begin = 0, packet_end = 0;
+                // One sample's radiance (and, differential, without the objects) into the sums.
+                auto accumulate = [&](Vec3f L, Vec3f Ln, const PathInfo& info) {
+                    if (p_.clamp > 0.f) {
+                        const float mc = maxComp(L);
+                        if (mc > p_.clamp) L *= p_.clamp / mc;
+                        const float mn = maxComp(Ln);
+                        if (mn > p_.clamp) Ln *= p_.clamp / mn;
+                    }
+                    for (int k = 0; k < 3; ++k) {
+                        cn[k] += Ln[k];
+                        c[k] += L[k];
+                        a[k] += info.albedo[k];
+                        n[k] += info.normal[k];
+                    }
+                    if (adaptive) {
+                        double* dsum = taken < n_min ? dp : dl;
+                        for (int k = 0; k < 3; ++k)
+                            dsum[k] += double(L[k]) - Ln[k];
+                        for (int k = 0; k < 3; ++k) {
+                            const double yv = info.sees_object ? L[k] : double(L[k]) - Ln[k];
+                            ys[k] += yv;
+                            yq[k] += yv * yv;
+                            lev[k] += info.sees_object ? L[k] : Ln[k];
+                        }
+                    }
+                    obj += info.touched_object ? 1.0 : 0.0;
+                    msk += info.sees_object ? 1.0 : 0.0;
+                    tile_rays += info.rays;
+                };
                 auto takeSamples = [&](uint32_t upto) {
+                    if (batched) {
+                        BatchSampler bsamp(px);
+                        while (taken < upto) {
+                            const int nb = (int)std::min<uint32_t>(upto - taken, batch);
+                            for (int k = 0; k < nb; ++k) {
+                                Lane& l = lanes[k];
+                                l.rindex = BatchSampler::reversedIndex(taken + k);
+                                const Vec2f off =
+                                    filterOffset(p_.filter, bsamp.get2D(PathDims::kFilm, l.rindex));
+                                Vec3f o, d;
+                                cam.generateRay(Point2f(x + off[0], y + off[1]), o, d);
+                                l.s = PathState::start(o, d, pixel_spread);
+                                l.info = PathInfo();
+                            }
+                            if (p_.camera_packets) {
+                                // packets of up to 8 samples, from sample 0 on (as below)
+                                for (int k0 = 0; k0 < nb;) {
+                                    const int k1 =
+                                        std::min(nb, k0 + int(kPacket - (taken + k0) % kPacket));
+                                    for (int k = k0; k < k1; ++k) {
+                                        cam_o[k - k0] = lanes[k].s.o;
+                                        cam_d[k - k0] = lanes[k].s.d;
+                                    }
+                                    scene.intersect8(cam_o, cam_d, k1 - k0, cam_hit, cam_found,
+                                                     with_objects);
+                                    for (int k = k0; k < k1; ++k) {
+                                        batch_hits[k].found = cam_found[k - k0];
+                                        if (cam_found[k - k0]) batch_hits[k].hit = cam_hit[k - k0];
+                                    }
+                                    k0 = k1;
+                                }
+                            }
+                            traceBatch(scene, lights, bsamp, lanes.data(), nb, with_objects,
+                                       p_.camera_packets ? batch_hits.data() : nullptr);
+                            for (int k = 0; k < nb; ++k, ++taken)
+                                accumulate(lanes[k].s.L, lanes[k].s.L, lanes[k].info);
+                        }
+                        return;
+                    }
                     for (; taken < upto; ++taken) {
                         if (p_.camera_packets && taken >= packet_end) {
                             packet_begin = taken;
@@ -565,32 +884,7 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                             Ln = trace(scene, lights, ps, fork, false, false, info_n, nullptr);
                             tile_rays += info_n.rays;
                         }
-                        if (p_.clamp > 0.f) {
-                            const float mc = maxComp(L);
-                            if (mc > p_.clamp) L *= p_.clamp / mc;
-                            const float mn = maxComp(Ln);
-                            if (mn > p_.clamp) Ln *= p_.clamp / mn;
-                        }
-                        for (int k = 0; k < 3; ++k) {
-                            cn[k] += Ln[k];
-                            c[k] += L[k];
-                            a[k] += info.albedo[k];
-                            n[k] += info.normal[k];
-                        }
-                        if (adaptive) {
-                            double* dsum = taken < n_min ? dp : dl;
-                            for (int k = 0; k < 3; ++k)
-                                dsum[k] += double(L[k]) - Ln[k];
-                            for (int k = 0; k < 3; ++k) {
-                                const double yv = info.sees_object ? L[k] : double(L[k]) - Ln[k];
-                                ys[k] += yv;
-                                yq[k] += yv * yv;
-                                lev[k] += info.sees_object ? L[k] : Ln[k];
-                            }
-                        }
-                        obj += info.touched_object ? 1.0 : 0.0;
-                        msk += info.sees_object ? 1.0 : 0.0;
-                        tile_rays += info.rays;
+                        accumulate(L, Ln, info);
                     }
                 };
                 const size_t pi = size_t(y) * sz.width + x;

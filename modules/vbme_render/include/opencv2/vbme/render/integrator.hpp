@@ -121,6 +121,16 @@ public:
         ahead of their paths, instead of one at a time. The image is the same bit for bit
         (tested), so this speed switch is not part of read()/write(). */
         bool camera_packets = true;
+        /** @brief Paths of one pixel advanced together, stage by stage (0 or 1: one path at a
+        time). When > 1, up to this many samples of a pixel are traced as a batch: all live
+        paths are intersected, then all are shaded (BSDF and light sample, shadow ray built),
+        then all shadow rays are traced, then all are continued — independent work that the
+        processor overlaps, where one path at a time is a chain of dependent operations. Each
+        path does the same floating-point operations on the same random numbers as alone, so
+        the image is the same bit for bit (tested). Applies to render() with the PATH or
+        REFERENCE integrator when no path must note the objects it meets (no differential
+        rendering, and no AOVs or no objects); otherwise paths are traced one at a time. */
+        int path_batch = 16;
 
         /** @brief spp, max_depth and seed from a scene's render settings. */
         static Params fromScene(const RenderSettings& s);
