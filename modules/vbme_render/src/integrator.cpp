@@ -122,6 +122,20 @@ inline Vec3f mul(const Vec3f& a, const Vec3f& b) {
     return Vec3f(a[0] * b[0], a[1] * b[1], a[2] * b[2]);
 }
 
+/** @p v read one float at a time. A vector written by a callee float by float (or as a float
+and a pair) and read back with one wider load cannot be forwarded from the store buffer: the
+load waits for the stores to retire. The empty asm statements keep the compiler from merging
+the three loads. */
+inline Vec3f load3(const Vec3f& v) {
+    float a = v[0], b = v[1], c = v[2];
+#if defined(__GNUC__) && defined(__SSE2__)
+    asm("" : "+x"(a));
+    asm("" : "+x"(b));
+    asm("" : "+x"(c));
+#endif
+    return Vec3f(a, b, c);
+}
+
 /** Discrete distribution over the scene's lights for next-event estimation. */
 struct LightSelector {
     std::vector<float> pmf, cdf;  // cdf has n + 1 entries
@@ -591,7 +605,7 @@ void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector&
                         : sampler.get2D(PathDims::dim(depth, PathDims::kLightPos), l.rindex);
                 EmitterSample& es = l.es;
                 if (emitters[li]->sample(hit.p, u, es) && es.pdf > 0.f && !isBlack(es.L)) {
-                    l.wi_local = l.frame.toLocal(es.wi);
+                    l.wi_local = l.frame.toLocal(load3(es.wi));
                     l.f = l.bsdf->eval(l.wo, l.wi_local, l.diffuse);
                     if (!isBlack(l.f)) {
                         const float side = es.wi.dot(hit.ng) > 0.f ? 1.f : -1.f;
@@ -605,11 +619,38 @@ void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector&
             }
             shaded[n_shaded++] = live[j];
         }
-        // 3. The shadow rays.
-        for (int j = 0; j < n_shaded; ++j) {
-            Lane& l = lanes[shaded[j]];
-            if (l.shadow)
-                l.blocked = l.tfar > 0.f && scene.occluded(l.so, l.es.wi, 0.f, l.tfar, with_objects);
+        // 3. The shadow rays, in packets (rtcOccluded16 / 8): at the first vertex a pixel's
+        // shadow rays start from nearly one point and go to the same light (coherent), deeper
+        // ones less so. A packet finds the same hits as one ray at a time (tested).
+        {
+            const int width = lanes[live[0]].s.depth == 0 ? 16 : 8;
+            int idx[16], m = 0;
+            Vec3f po[16], pd[16];
+            float pt[16];
+            bool pb[16];
+            auto flush = [&] {
+                if (width == 16)
+                    scene.occluded16(po, pd, pt, m, pb, with_objects);
+                else
+                    scene.occluded8(po, pd, pt, m, pb, with_objects);
+                for (int k = 0; k < m; ++k)
+                    lanes[idx[k]].blocked = pb[k];
+                m = 0;
+            };
+            for (int j = 0; j < n_shaded; ++j) {
+                Lane& l = lanes[shaded[j]];
+                if (!l.shadow) continue;
+                if (!(l.tfar > 0.f)) {
+                    l.blocked = false;
+                    continue;
+                }
+                idx[m] = shaded[j];
+                po[m] = l.so;
+                pd[m] = l.es.wi;
+                pt[m] = l.tfar;
+                if (++m == width) flush();
+            }
+            if (m) flush();
         }
         // 4. The light's contribution, then the next ray (or the end of the path).
         n_live = 0;
@@ -815,10 +856,23 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                                 l.rindex = BatchSampler::reversedIndex(taken + k);
                                 const Vec2f off =
                                     filterOffset(p_.filter, bsamp.get2D(PathDims::kFilm, l.rindex));
-                                Vec3f o, d;
-                                cam.generateRay(Point2f(x + off[0], y + off[1]), o, d);
-                                l.s = PathState::start(o, d, pixel_spread);
-                                l.info = PathInfo();
+                                // PathState::start(o, d, pixel_spread), field by field in
+                                // place (a temporary copied over would be read back with wider
+                                // loads than its stores: no store forwarding).
+                                PathState& st = l.s;
+                                cam.generateRay(Point2f(x + off[0], y + off[1]), st.o, st.d);
+                                st.prev_p = st.o;
+                                st.L = Vec3f(0, 0, 0);
+                                st.beta = Vec3f(1, 1, 1);
+                                st.prev_pdf = 0.f;
+                                st.prev_delta = true;
+                                st.depth = 0;
+                                st.cone_width = 0.f;
+                                st.cone_spread = pixel_spread;
+                                st.filtered = false;
+                                l.info.albedo = l.info.normal = Vec3f(0, 0, 0);
+                                l.info.touched_object = l.info.sees_object = l.info.forked = false;
+                                l.info.rays = 0;
                             }
                             if (p_.camera_packets) {
                                 // packets of up to 8 samples, from sample 0 on (as below)

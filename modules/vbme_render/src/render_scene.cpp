@@ -505,6 +505,64 @@ void RenderSceneImpl::intersect8(const Vec3f* o, const Vec3f* d, int n, SurfaceH
     }
 }
 
+namespace {
+
+template <int W> struct Packet;
+template <> struct Packet<8> {
+    using Ray = RTCRay8;
+    static void occluded(const int* valid, RTCScene s, RTCIntersectContext* c, Ray* r) {
+        rtcOccluded8(valid, s, c, r);
+    }
+};
+template <> struct Packet<16> {
+    using Ray = RTCRay16;
+    static void occluded(const int* valid, RTCScene s, RTCIntersectContext* c, Ray* r) {
+        rtcOccluded16(valid, s, c, r);
+    }
+};
+
+/* Occlusion of n ≤ W rays as one packet of width W. */
+template <int W>
+void occludedPacket(RTCScene scene, const Vec3f* o, const Vec3f* d, const float* tfar, int n,
+                    bool* blocked) {
+    CV_DbgAssert(n >= 1 && n <= W);
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    alignas(64) int valid[W];
+    typename Packet<W>::Ray r;
+    for (int k = 0; k < W; ++k) {
+        const int j = k < n ? k : 0;  // inactive lanes repeat ray 0 (not traced)
+        valid[k] = k < n ? -1 : 0;
+        r.org_x[k] = o[j][0];
+        r.org_y[k] = o[j][1];
+        r.org_z[k] = o[j][2];
+        r.tnear[k] = 0.f;
+        r.dir_x[k] = d[j][0];
+        r.dir_y[k] = d[j][1];
+        r.dir_z[k] = d[j][2];
+        r.time[k] = 0.f;
+        r.tfar[k] = tfar[j];
+        r.mask[k] = 0xffffffffu;
+        r.id[k] = 0;
+        r.flags[k] = 0;
+    }
+    Packet<W>::occluded(valid, scene, &ctx, &r);
+    for (int k = 0; k < n; ++k)
+        blocked[k] = r.tfar[k] < 0.f;  // Embree sets tfar to −inf on a hit
+}
+
+}  // namespace
+
+void RenderSceneImpl::occluded8(const Vec3f* o, const Vec3f* d, const float* tfar, int n,
+                                bool* blocked, bool with_objects) const {
+    occludedPacket<8>(sceneFor(with_objects), o, d, tfar, n, blocked);
+}
+
+void RenderSceneImpl::occluded16(const Vec3f* o, const Vec3f* d, const float* tfar, int n,
+                                 bool* blocked, bool with_objects) const {
+    occludedPacket<16>(sceneFor(with_objects), o, d, tfar, n, blocked);
+}
+
 bool RenderSceneImpl::occluded(const Vec3f& o, const Vec3f& d, float tnear, float tfar,
                                bool with_objects) const {
     RTCIntersectContext ctx;

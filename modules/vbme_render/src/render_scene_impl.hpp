@@ -94,6 +94,13 @@ public:
     which start at one point and fan out over a pixel. */
     void intersect8(const Vec3f* o, const Vec3f* d, int n, SurfaceHit* hit, bool* found,
                     bool with_objects) const;
+    /** Occlusion of @p n ≤ 8 rays o[k] + t·d[k], t in (0, tfar[k]), traced as one packet
+    (rtcOccluded8): blocked[k] tells whether something lies on ray k. */
+    void occluded8(const Vec3f* o, const Vec3f* d, const float* tfar, int n, bool* blocked,
+                   bool with_objects) const;
+    /** occluded8() for @p n ≤ 16 rays (rtcOccluded16). */
+    void occluded16(const Vec3f* o, const Vec3f* d, const float* tfar, int n, bool* blocked,
+                    bool with_objects) const;
 
     const GeometryRec& geometry(int g) const { return geoms_[g]; }
     const MaterialRec& material(int g, int prim) const {
