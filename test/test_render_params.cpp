@@ -38,6 +38,7 @@ Renderer::Params changedRenderer() {
     p.texture_cone = 0.05f;
     p.adaptive_roulette = 0.5f;
     p.adaptive_radius = 3;
+    p.path_batch = 4;
     return p;
 }
 
