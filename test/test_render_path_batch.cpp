@@ -124,9 +124,9 @@ TEST(RenderPathBatch, SameBitsAsOnePathAtATime) {
     EXPECT_EQ(compared, 5 * 4);
 }
 
-// With AOVs, batches apply where no path must note the objects it meets: a render without the
-// objects (the albedo, normal and mask images too), and the default settings with objects
-// (one path at a time there, by the same code): same bits either way.
+// With AOVs: a render without the objects, and one with them, where the shadow rays must tell
+// whether an object blocks them (closest-hit rays; the `object` image): the colour and every
+// AOV the same bit for bit.
 TEST(RenderPathBatch, AovsSameBits) {
     ScratchDir dir;
     const Scene s = batchScene(dir.path().string(), true, Size(20, 14));
@@ -144,6 +144,7 @@ TEST(RenderPathBatch, AovsSameBits) {
         Renderer::create(p)->render(*rs, s.camera, img);
         ASSERT_FALSE(img.albedo.empty());
         EXPECT_GT(norm(img.albedo, NORM_INF), 0.0);
+        if (with_objects) EXPECT_GT(norm(img.object, NORM_INF), 0.0);  // objects were met
         expectSameImages(ref, img, with_objects ? "with objects" : "without objects");
     }
 }

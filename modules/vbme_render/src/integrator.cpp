@@ -311,12 +311,13 @@ private:
     /* Traces the paths of lanes[0 … n) (n ≤ kMaxBatch, all at depth 0, from lanes[k].s and
     lanes[k].rindex) together, stage by stage: closest hits of all live paths, then the shading
     of all, then their shadow rays, then their continuation. Every path does what trace() does
-    for it (no fork, no object tracking), in the same order: the same bits. @p camera_hits: the
-    camera rays' hits, traced ahead (or null). Leaves each radiance in lanes[k].s.L (0 if not
+    for it (no fork), in the same order: the same bits. @p camera_hits: the
+    camera rays' hits, traced ahead (or null). @p track_objects: as in trace() (shadow rays
+    are closest-hit rays, one at a time). Leaves each radiance in lanes[k].s.L (0 if not
     finite, as trace() returns). */
     void traceBatch(const RenderSceneImpl& scene, const LightSelector& lights,
                     BatchSampler& sampler, Lane* lanes, int n, bool with_objects,
-                    const CameraHit* camera_hits) const;
+                    bool track_objects, const CameraHit* camera_hits) const;
     RenderStats renderImpl(const RenderScene& scene, const Camera& camera, RenderImages& out,
                            RenderImages* without, Progress* progress) const;
     Params p_;
@@ -498,7 +499,7 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
 
 void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector& lights,
                               BatchSampler& sampler, Lane* lanes, int n, bool with_objects,
-                              const CameraHit* camera_hits) const {
+                              bool track_objects, const CameraHit* camera_hits) const {
     CV_DbgAssert(n >= 0 && n <= kMaxBatch);
     const bool nee = p_.integrator == PATH;
     const auto& emitters = scene.emitters();
@@ -589,7 +590,7 @@ void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector&
                 (nee_here && n_lights > 1) || !m.single_lobe
                     ? sampler.get2D(PathDims::dim(depth, PathDims::kLightSelect), l.rindex)
                     : Vec2f(0.f, 0.f);
-            l.last = depth + 1 >= p_.max_depth && nee && !hittable_emission;
+            l.last = depth + 1 >= p_.max_depth && !track_objects && nee && !hittable_emission;
             l.sampled = false;
             if (!l.last) {
                 const Vec2f ud = sampler.get2D(PathDims::dim(depth, PathDims::kBsdfDir), l.rindex);
@@ -622,7 +623,17 @@ void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector&
         // 3. The shadow rays, in packets (rtcOccluded16 / 8): at the first vertex a pixel's
         // shadow rays start from nearly one point and go to the same light (coherent), deeper
         // ones less so. A packet finds the same hits as one ray at a time (tested).
-        {
+        if (track_objects) {
+            // closest hits instead of any hits, to tell whether an object blocks (as trace())
+            for (int j = 0; j < n_shaded; ++j) {
+                Lane& l = lanes[shaded[j]];
+                if (!l.shadow) continue;
+                SurfaceHit sh;
+                l.blocked =
+                    l.tfar > 0.f && scene.intersect(l.so, l.es.wi, 0.f, l.tfar, sh, true);
+                if (l.blocked && sh.kind == GeometryKind::OBJECT) l.info.touched_object = true;
+            }
+        } else {
             const int width = lanes[live[0]].s.depth == 0 ? 16 : 8;
             int idx[16], m = 0;
             Vec3f po[16], pd[16];
@@ -790,8 +801,8 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
     std::vector<Pilot> pilot(adaptive ? size_t(sz.area()) : 0);
     std::vector<uint8_t> near_touched(adaptive ? size_t(sz.area()) : 0, 0);
     int phase = adaptive ? 0 : 1;
-    // Paths of a pixel in batches (traceBatch) where no path must note the objects it meets.
-    const bool batched = p_.path_batch > 1 && !differential && !track_objects;
+    // Paths of a pixel in batches (traceBatch), except for differential renders (forks).
+    const bool batched = p_.path_batch > 1 && !differential;
     const uint32_t batch = (uint32_t)std::min(p_.path_batch, kMaxBatch);
     auto renderTile = [&](int tile) {
         const int x0 = (tile % tiles_x) * ts, y0 = (tile / tiles_x) * ts;
@@ -893,6 +904,7 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                                 }
                             }
                             traceBatch(scene, lights, bsamp, lanes.data(), nb, with_objects,
+                                       track_objects,
                                        p_.camera_packets ? batch_hits.data() : nullptr);
                             for (int k = 0; k < nb; ++k, ++taken)
                                 accumulate(lanes[k].s.L, lanes[k].s.L, lanes[k].info);

@@ -127,9 +127,10 @@ public:
         then all shadow rays are traced, then all are continued — independent work that the
         processor overlaps, where one path at a time is a chain of dependent operations. Each
         path does the same floating-point operations on the same random numbers as alone, so
-        the image is the same bit for bit (tested). Applies to render() with the PATH or
-        REFERENCE integrator when no path must note the objects it meets (no differential
-        rendering, and no AOVs or no objects); otherwise paths are traced one at a time. */
+        the image is the same bit for bit (tested). Applies to render() (PATH and REFERENCE);
+        renderDifferential(), whose paths fork, traces one path at a time. Shadow rays go to
+        Embree in packets, except when they must tell which object blocks them (AOVs of a
+        scene with objects: closest-hit rays one at a time, as without batches). */
         int path_batch = 16;
 
         /** @brief spp, max_depth and seed from a scene's render settings. */
