@@ -110,9 +110,9 @@ TEST(RenderPathBatch, SameBitsAsOnePathAtATime) {
                         p.threads = threads;
                         RenderImages img;
                         const RenderStats st = Renderer::create(p)->render(*rs, s.camera, img);
-                        const std::string what = format(
-                            "area %d robust %d integrator %d batch %d threads %d", (int)area,
-                            (int)robust, integrator, batch, threads);
+                        const std::string what =
+                            format("area %d robust %d integrator %d batch %d threads %d", (int)area,
+                                   (int)robust, integrator, batch, threads);
                         expectSameImages(ref, img, what);
                         EXPECT_EQ(st.rays, st_ref.rays) << what;
                         EXPECT_EQ(st.paths, st_ref.paths) << what;

@@ -629,8 +629,7 @@ void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector&
                 Lane& l = lanes[shaded[j]];
                 if (!l.shadow) continue;
                 SurfaceHit sh;
-                l.blocked =
-                    l.tfar > 0.f && scene.intersect(l.so, l.es.wi, 0.f, l.tfar, sh, true);
+                l.blocked = l.tfar > 0.f && scene.intersect(l.so, l.es.wi, 0.f, l.tfar, sh, true);
                 if (l.blocked && sh.kind == GeometryKind::OBJECT) l.info.touched_object = true;
             }
         } else {

@@ -507,14 +507,17 @@ void RenderSceneImpl::intersect8(const Vec3f* o, const Vec3f* d, int n, SurfaceH
 
 namespace {
 
-template <int W> struct Packet;
-template <> struct Packet<8> {
+template <int W>
+struct Packet;
+template <>
+struct Packet<8> {
     using Ray = RTCRay8;
     static void occluded(const int* valid, RTCScene s, RTCIntersectContext* c, Ray* r) {
         rtcOccluded8(valid, s, c, r);
     }
 };
-template <> struct Packet<16> {
+template <>
+struct Packet<16> {
     using Ray = RTCRay16;
     static void occluded(const int* valid, RTCScene s, RTCIntersectContext* c, Ray* r) {
         rtcOccluded16(valid, s, c, r);
