@@ -50,6 +50,23 @@ void BM_AutoCalibrate(benchmark::State& state) {
 }
 BENCHMARK(BM_AutoCalibrate)->Arg(640)->Arg(1280)->Unit(benchmark::kMillisecond);
 
+// The same with the edge-pixel likelihood (Params::edgel_scoring): its cost over BM_AutoCalibrate.
+void BM_AutoCalibrateEdgels(benchmark::State& state) {
+    const Size size((int)state.range(0), (int)state.range(0) * 3 / 4);
+    const Mat img = benchImage(size);
+    VanishingPointCalibrator::Params p;
+    p.edgel_scoring = true;
+    auto cal = VanishingPointCalibrator::create(p);
+    for (auto _ : state) {
+        FrameCalibration fc = cal->detect(img);
+        benchmark::DoNotOptimize(fc);
+    }
+    const double f = cal->detect(img).focal();
+    state.SetLabel(format("focal %.1f px, error %.2f %%", f,
+                          100 * std::abs(f / benchCamera(size).K(0, 0) - 1)));
+}
+BENCHMARK(BM_AutoCalibrateEdgels)->Arg(640)->Unit(benchmark::kMillisecond);
+
 // The previous RANSAC search (Params::RANSAC) on the same image: the peer of BM_AutoCalibrate.
 void BM_AutoCalibrateRansac(benchmark::State& state) {
     const Size size((int)state.range(0), (int)state.range(0) * 3 / 4);

@@ -52,10 +52,11 @@ std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
                                                 int max_proposals);
 
 /** The GLOBAL search on given segments (pixels); proposals best first. Throws with the
-reason when none is plausible. */
+reason when none is plausible. @p gray (8-bit, the image the segments come from) is used when
+params.edgel_scoring is set (manhattan_edgels.hpp); empty: segments only. */
 std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& segments, Size size,
                                                const VanishingPointCalibrator::Params& params,
-                                               int max_proposals);
+                                               int max_proposals, const Mat& gray = Mat());
 
 /** The GLOBAL search's refinement (relabelling + robust joint refinement of focal length and
 rotation, no distortion) started from a given frame: @p focal (px) and @p R (cam_from_world,

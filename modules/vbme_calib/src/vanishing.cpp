@@ -386,6 +386,7 @@ void VanishingPointCalibrator::Params::read(const FileNode& node) {
     in("estimate_distortion", estimate_distortion);
     in("fld_pass", fld_pass);
     in("fld_pass_below_confidence", fld_pass_below_confidence);
+    in("edgel_scoring", edgel_scoring);
     in.finish();
     check();
 }
@@ -424,6 +425,7 @@ void VanishingPointCalibrator::Params::write(FileStorage& fs) const {
     fs << "focal_prior" << focal_prior << "focal_prior_sigma" << focal_prior_sigma;
     fs << "estimate_distortion" << (int)estimate_distortion;
     fs << "fld_pass" << (int)fld_pass << "fld_pass_below_confidence" << fld_pass_below_confidence;
+    fs << "edgel_scoring" << (int)edgel_scoring;
 }
 
 Point2d undistortPointK1(const Point2d& p, double f, const Point2d& c, double k1) {

@@ -168,6 +168,15 @@ public:
         /** @brief detection: the FLD pass runs when the LSD pass's first proposal's confidence
         (ManhattanProposal::confidence) is below this (above 1: always). */
         double fld_pass_below_confidence = 0.4;
+        /** @brief detection (GLOBAL): also find and score Manhattan frames with every edge
+        pixel of the image (the "Manhattan World" edgel likelihood @cite Coughlan1999
+        @cite Denis2008), not only with the detected segments: frames from the strongest
+        vanishing point alone (the other two directions from the edge pixels, refined by the
+        segments with the edgels' focal length as a prior; not with `focal` or `focal_prior`)
+        and the hypotheses the edgels score best are refined too; ranking and confidence stay
+        those of the segments. About twice the time. Not with `estimate_distortion`. Measured in
+        doc/vbme_calib.md, "Edge pixels (session 9)". */
+        bool edgel_scoring = false;
 
         /** @brief Reads the fields present in @p node (others keep their values); an
         unknown key or a value check() refuses is an error. */
