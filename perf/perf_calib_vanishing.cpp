@@ -99,7 +99,8 @@ BENCHMARK(BM_ProposalsWithDistortion)->Unit(benchmark::kMillisecond);
 // The 26 undistorted Blender renders of test/data/calib_rooms (640×480), one image per
 // iteration in turn: what `--auto` costs on realistic images. Arg 0: the FastLineDetector pass
 // off (LSD segments only); 1: the default (FLD pass when the LSD pass's first proposal's
-// confidence is below Params::fld_pass_below_confidence); 2: the FLD pass on every image.
+// confidence is below Params::fld_pass_below_confidence); 2: the FLD pass on every image;
+// 3: the default with the edge pixels (Params::edgel_scoring).
 void BM_AutoCalibrateRenderedRooms(benchmark::State& state) {
     static const std::vector<Mat> imgs = [] {
         std::vector<Mat> v;
@@ -125,6 +126,7 @@ void BM_AutoCalibrateRenderedRooms(benchmark::State& state) {
     VanishingPointCalibrator::Params p;
     p.fld_pass = state.range(0) > 0;
     if (state.range(0) == 2) p.fld_pass_below_confidence = 2;
+    p.edgel_scoring = state.range(0) == 3;
     size_t i = 0, refused = 0;
     for (auto _ : state) {
         try {
@@ -141,6 +143,7 @@ BENCHMARK(BM_AutoCalibrateRenderedRooms)
     ->Arg(0)
     ->Arg(1)
     ->Arg(2)
+    ->Arg(3)
     ->Iterations(52)
     ->Unit(benchmark::kMillisecond);
 
