@@ -69,10 +69,15 @@ inline void sinCosQuarter(float x, float& s, float& c) {
                                 z * (-1.388731625493765e-3f + z * 2.443315711809948e-5f)));
 }
 
-/** @brief Concentric map of the unit square onto the unit disk (Shirley & Chiu 1997). */
-inline Vec2f squareToConcentricDisk(const Vec2f& u) {
+namespace detail {
+/** @brief squareToConcentricDisk, also giving the point's radius @p radius (|r| below, exactly:
+the radius of the concentric map is a coordinate of the square, no square root needed). */
+inline Vec2f concentricDisk(const Vec2f& u, float& radius) {
     const float ox = 2.f * u[0] - 1.f, oy = 2.f * u[1] - 1.f;
-    if (ox == 0.f && oy == 0.f) return Vec2f(0, 0);
+    if (ox == 0.f && oy == 0.f) {
+        radius = 0.f;
+        return Vec2f(0, 0);
+    }
     // Wedge |ox| > |oy|: r = ox, θ = φ = (π/4)(oy/ox); otherwise r = oy, θ = π/2 − φ with
     // φ = (π/4)(ox/oy), i.e. (cos θ, sin θ) = (sin φ, cos φ). The wedge is a coin flip per
     // sample: chosen by bit masks, not a branch that mispredicts half the time; |φ| ≤ π/4
@@ -88,9 +93,17 @@ inline Vec2f squareToConcentricDisk(const Vec2f& u) {
         return f;
     };
     const float r = pick(ox, oy);
+    radius = std::abs(r);
     float sn, cs;
     sinCosQuarter((kPi / 4.f) * (pick(oy, ox) / r), sn, cs);
     return Vec2f(r * pick(cs, sn), r * pick(sn, cs));
+}
+}  // namespace detail
+
+/** @brief Concentric map of the unit square onto the unit disk (Shirley & Chiu 1997). */
+inline Vec2f squareToConcentricDisk(const Vec2f& u) {
+    float radius;
+    return detail::concentricDisk(u, radius);
 }
 /** @brief Density of squareToConcentricDisk per unit area (1/π inside the disk). */
 inline float squareToConcentricDiskPdf(const Vec2f& p) {
@@ -99,8 +112,11 @@ inline float squareToConcentricDiskPdf(const Vec2f& p) {
 
 /** @brief Cosine-weighted hemisphere around +z (Malley's method). */
 inline Vec3f squareToCosineHemisphere(const Vec2f& u) {
-    const Vec2f d = squareToConcentricDisk(u);
-    const float z = std::sqrt(std::max(0.f, 1.f - d[0] * d[0] - d[1] * d[1]));
+    float r;
+    const Vec2f d = detail::concentricDisk(u, r);
+    // z = √(1 − r²) from the disk's radius, not from the point: the square root no longer waits
+    // for the division and polynomials that place the point on its circle.
+    const float z = std::sqrt(std::max(0.f, 1.f - r * r));
     return Vec3f(d[0], d[1], z);
 }
 /** @brief Solid-angle pdf of squareToCosineHemisphere: cos θ / π (0 below the horizon). */
