@@ -160,7 +160,8 @@ TEST(RenderParams, RoomTextureAndSceneParams) {
     RenderScene::Params s;
     s.room_albedo = Vec3f(0.5f, 0.25f, 0.75f);
     s.room_emissive = true;
-    s.robust = false;
+    s.robust = true;
+    s.retrace_leaks = false;
     expectRoundTrip(s);
     expectUnknownKeyRefused<RenderScene::Params>("room_albedo");
     RenderScene::Params bad_s;

@@ -292,7 +292,8 @@ struct PeerScene {
     std::string dir, obj;
     cv::vbme::Scene scene;
     cv::Ptr<cv::vbme::RenderScene> rs;
-    cv::Ptr<cv::vbme::RenderScene> rs_fast;  // Embree's robust mode off, as the peer runs
+    cv::Ptr<cv::vbme::RenderScene> rs_fast;    // Embree's fast kernels alone, as the peer runs
+    cv::Ptr<cv::vbme::RenderScene> rs_robust;  // Embree's robust mode on every ray
     cv::Vec3d eye{1.1, -3.4, 1.6}, target{-0.1, 0.3, 0.5}, light{0.4, -0.6, 1.9};
     double intensity = 8.0, fov_y = 45.0;
 
@@ -364,7 +365,11 @@ struct PeerScene {
         rs = RenderScene::create(scene);
         RenderScene::Params fast;
         fast.robust = false;
+        fast.retrace_leaks = false;
         rs_fast = RenderScene::create(scene, fast);
+        RenderScene::Params robust;
+        robust.robust = true;
+        rs_robust = RenderScene::create(scene, robust);
     }
     ~PeerScene() {
         std::error_code ec;
@@ -456,9 +461,9 @@ void benchRenderPeer(const BenchOptions& o) {
         "render-peer %dx%d, %d spp, path length %d, %d threads, %d rounds, path batch %d "
         "(point-lit room with a sphere and a box):\n",
         sz.width, sz.height, o.spp, o.max_depth, threads, o.repeat, rp.path_batch);
-    std::vector<double> ratio_wall, ratio_cpu, ratio_cpu_fast;
+    std::vector<double> ratio_wall, ratio_cpu, ratio_cpu_fast, ratio_cpu_robust;
     double best_v = 1e30, best_p = 1e30;
-    RenderImages img, img_fast;
+    RenderImages img, img_fast, img_robust;
     Mat peer;
     for (int round = 0; round < o.repeat; ++round) {
         const double c0 = cpuSeconds(RUSAGE_SELF);
@@ -467,6 +472,9 @@ void benchRenderPeer(const BenchOptions& o) {
         const double c1f = cpuSeconds(RUSAGE_SELF);
         r->render(*ps.rs_fast, ps.camera(sz), img_fast);
         const double v_cpu_fast = cpuSeconds(RUSAGE_SELF) - c1f;
+        const double c1r = cpuSeconds(RUSAGE_SELF);
+        r->render(*ps.rs_robust, ps.camera(sz), img_robust);
+        const double v_cpu_robust = cpuSeconds(RUSAGE_SELF) - c1r;
         double w1, c1, w2, c2;
         const std::string out = ps.dir + "/peer.ppm";
         if (!ps.runPeer(sz, o.spp, o.max_depth, threads, ps.dir + "/peer_n.ppm", &w1, &c1) ||
@@ -479,14 +487,15 @@ void benchRenderPeer(const BenchOptions& o) {
         ratio_wall.push_back(vw / pw);
         ratio_cpu.push_back(vc / pc);
         ratio_cpu_fast.push_back(paths / std::max(v_cpu_fast, 1e-6) / pc);
+        ratio_cpu_robust.push_back(paths / std::max(v_cpu_robust, 1e-6) / pc);
         best_v = std::min(best_v, st.seconds);
         best_p = std::min(best_p, w2 - w1);
         std::printf(
             "  round %d: vbme %.3f s (%.0f paths/s wall, %.0f paths/s CPU), pathtracer "
-            "%.3f s (%.0f paths/s wall, %.0f paths/s CPU): %.2fx wall, %.2fx CPU; robust mode "
-            "off: %.2fx CPU\n",
-            round + 1, st.seconds, vw, vc, w2 - w1, pw, pc, vw / pw, vc / pc,
-            ratio_cpu_fast.back());
+            "%.3f s (%.0f paths/s wall, %.0f paths/s CPU): %.2fx wall, %.2fx CPU; fast kernels "
+            "alone: %.2fx CPU; robust mode on every ray: %.2fx CPU\n",
+            round + 1, st.seconds, vw, vc, w2 - w1, pw, pc, vw / pw, vc / pc, ratio_cpu_fast.back(),
+            ratio_cpu_robust.back());
     }
     auto median = [](std::vector<double> v) {
         std::sort(v.begin(), v.end());
@@ -519,12 +528,17 @@ void benchRenderPeer(const BenchOptions& o) {
         "  vbme/pathtracer paths/s: %.2fx (wall, median of %d), %.2fx (CPU), %.2fx "
         "(fastest vs fastest)\n",
         median(ratio_wall), o.repeat, median(ratio_cpu), best_p / best_v);
-    Mat diff_fast;
+    Mat diff_fast, diff_robust;
     absdiff(img.color, img_fast.color, diff_fast);
+    absdiff(img.color, img_robust.color, diff_robust);
     std::printf(
-        "  with Embree's robust mode off (RenderScene::Params::robust = false, as the peer "
-        "runs): %.2fx (CPU, median); mean |difference| from robust %.2g (linear)\n",
+        "  Embree's fast kernels alone (RenderScene::Params::retrace_leaks = false, as the peer "
+        "runs): %.2fx (CPU, median); mean |difference| from the default %.2g (linear)\n",
         median(ratio_cpu_fast), mean(diff_fast.reshape(1))[0]);
+    std::printf(
+        "  Embree's robust mode on every ray (RenderScene::Params::robust = true): %.2fx (CPU, "
+        "median); mean |difference| from the default %.2g (linear)\n",
+        median(ratio_cpu_robust), mean(diff_robust.reshape(1))[0]);
     const std::string png =
         (std::filesystem::temp_directory_path() / "vbme_bench_peer.png").string();
     Mat both;

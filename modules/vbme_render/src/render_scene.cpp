@@ -32,6 +32,7 @@ void RenderScene::Params::read(const FileNode& fn) {
         room_albedo = Vec3f(readVec3(n, "room_albedo"));
     in("room_emissive", room_emissive);
     in("robust", robust);
+    in("retrace_leaks", retrace_leaks);
     in.finish();
     check();
 }
@@ -44,7 +45,8 @@ void RenderScene::Params::check() const {
 
 void RenderScene::Params::write(FileStorage& fs) const {
     writeVec3(fs, "room_albedo", Vec3d(room_albedo));
-    fs << "room_emissive" << (int)room_emissive << "robust" << (int)robust;
+    fs << "room_emissive" << (int)room_emissive << "robust" << (int)robust << "retrace_leaks"
+       << (int)retrace_leaks;
 }
 
 Ptr<RenderScene> RenderScene::create(const Scene& scene, const Params& params) {
@@ -115,14 +117,20 @@ RenderSceneImpl::RenderSceneImpl(const Scene& scene, const Params& params)
         hittable_emission_ = hittable_emission_ || m.emissive;
     hittable_emission_ = hittable_emission_ || !infinite_.empty();
 
+    retrace_leaks_ = params_.retrace_leaks && !params_.robust;
+    closed_ = scene_.has_room;
+    diagonal_ = float(norm(hi_ - lo_));
+
     device_ = rtcNewDevice(nullptr);
     if (!device_) CV_Error(Error::StsError, "Embree: cannot create a device");
-    full_ = buildScene(true);
+    full_ = buildScene(true, params_.robust);
 }
 
 RenderSceneImpl::~RenderSceneImpl() {
     if (full_) rtcReleaseScene(full_);
     if (no_objects_) rtcReleaseScene(no_objects_);
+    for (RTCScene r : robust_)
+        if (r) rtcReleaseScene(r);
     if (device_) rtcReleaseDevice(device_);
 }
 
@@ -367,11 +375,11 @@ void RenderSceneImpl::addLight(const Light& light, int index) {
     if (!g.idx.empty()) geoms_.push_back(std::move(g));
 }
 
-RTCScene RenderSceneImpl::buildScene(bool with_objects) const {
+RTCScene RenderSceneImpl::buildScene(bool with_objects, bool robust) const {
     RTCScene s = rtcNewScene(device_);
     rtcSetSceneBuildQuality(s, RTC_BUILD_QUALITY_HIGH);
-    // robust (default): no leaks through the edges shared by the room's faces
-    rtcSetSceneFlags(s, params_.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
+    // robust: no leaks through the edges neighbouring triangles share
+    rtcSetSceneFlags(s, robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
     for (size_t i = 0; i < geoms_.size(); ++i) {
         const GeometryRec& g = geoms_[i];
         if (!with_objects && g.kind == GeometryKind::OBJECT) continue;
@@ -395,7 +403,7 @@ RTCScene RenderSceneImpl::buildScene(bool with_objects) const {
 }
 
 RTCScene RenderSceneImpl::noObjectsScene() const {
-    std::call_once(no_objects_once_, [this] { no_objects_ = buildScene(false); });
+    std::call_once(no_objects_once_, [this] { no_objects_ = buildScene(false, params_.robust); });
     return no_objects_;
 }
 
@@ -434,8 +442,25 @@ bool RenderSceneImpl::intersect(const Vec3f& o, const Vec3f& d, float tnear, flo
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(sceneFor(with_objects), &ctx, &rh);
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+    const bool found = rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+    if (found) fillHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar, hit);
+    if (maybeLeak(found, tfar, d, hit))
+        return intersectRobust(o, d, tnear, tfar, hit, with_objects);
+    return found;
+}
 
+bool RenderSceneImpl::intersectRobust(const Vec3f& o, const Vec3f& d, float tnear, float tfar,
+                                      SurfaceHit& hit, bool with_objects) const {
+    const int k = with_objects ? 1 : 0;
+    std::call_once(robust_once_[k], [&] { robust_[k] = buildScene(with_objects, true); });
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh;
+    setRay(rh.ray, o, d, tnear, tfar);
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(robust_[k], &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     fillHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar, hit);
     return true;
 }
@@ -502,6 +527,10 @@ void RenderSceneImpl::intersect8(const Vec3f* o, const Vec3f* d, int n, SurfaceH
         if (found[k])
             fillHit(rh.hit.geomID[k], rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k], rh.ray.tfar[k],
                     hit[k]);
+        // as intersect() does: the same bits with and without packets
+        if (maybeLeak(found[k], std::numeric_limits<float>::infinity(), d[k], hit[k]))
+            found[k] = intersectRobust(o[k], d[k], 0.f, std::numeric_limits<float>::infinity(),
+                                       hit[k], with_objects);
     }
 }
 

@@ -150,7 +150,18 @@ private:
     int addMaterial(MaterialRec m);
     RTCScene sceneFor(bool with_objects) const { return with_objects ? full_ : noObjectsScene(); }
     RTCScene noObjectsScene() const;
-    RTCScene buildScene(bool with_objects) const;
+    RTCScene buildScene(bool with_objects, bool robust) const;
+    /** Whether a closest-hit query's outcome calls for the robust trace (retrace_leaks): a miss
+    in a closed room of a ray longer than the scene's diagonal, or a hit on the back of an
+    opaque surface. */
+    bool maybeLeak(bool found, float tfar, const Vec3f& d, const SurfaceHit& hit) const {
+        if (!retrace_leaks_) return false;
+        if (!found) return closed_ && tfar > diagonal_;
+        return d.dot(hit.ng) > 0.f && !material(hit.geom_id, hit.prim_id).transmission;
+    }
+    /** intersect() in Embree's robust mode (the scenes built on first use). */
+    bool intersectRobust(const Vec3f& o, const Vec3f& d, float tnear, float tfar, SurfaceHit& hit,
+                         bool with_objects) const;
 
     Scene scene_;
     Params params_;
@@ -163,6 +174,12 @@ private:
     mutable RTCScene full_ = nullptr;
     mutable RTCScene no_objects_ = nullptr;
     mutable std::once_flag no_objects_once_;
+    // retrace_leaks: robust copies of full_ and no_objects_, built on first need
+    mutable RTCScene robust_[2] = {nullptr, nullptr};  // [with_objects]
+    mutable std::once_flag robust_once_[2];
+    bool retrace_leaks_ = false;  // params_.retrace_leaks && !params_.robust
+    bool closed_ = false;         // the scene has a room box (a ray from inside cannot escape)
+    float diagonal_ = 0.f;        // |hi_ − lo_|
     bool has_objects_ = false;
     bool hittable_emission_ = false;
 };

@@ -66,10 +66,18 @@ public:
         Params();                                     //!< Defaults as below.
         Vec3f room_albedo = Vec3f(0.8f, 0.8f, 0.8f);  //!< albedo of untextured room faces
         bool room_emissive = false;  //!< room textures are radiance (emitters), not albedo
-        /** @brief Embree's robust mode (RTC_SCENE_FLAG_ROBUST: conservative traversal, so that
-        rays do not slip through the edges shared by neighbouring triangles). Off traces faster
-        (`vbme bench render-peer` reports how much) at the risk of such leaks. */
-        bool robust = true;
+        /** @brief Embree's robust mode for every ray (RTC_SCENE_FLAG_ROBUST: conservative
+        traversal and a watertight triangle test, so that no ray slips through the edges shared by
+        neighbouring triangles). Off (the default), Embree's faster kernels trace every ray first;
+        see retrace_leaks. */
+        bool robust = false;
+        /** @brief With robust off: a closest-hit ray (intersect()) whose outcome only a leak can
+        produce is traced again in robust mode (a second BVH, built on first need) — a ray that
+        escapes a closed room (the scene has a `room:`; tfar beyond the scene's diagonal), or that
+        meets the back of an opaque (non-transmissive) surface (d · ng > 0: it got inside a mesh, or
+        behind a one-sided surface, where the robust trace confirms it). Occlusion rays are not
+        checked. Off: Embree's fast kernels alone, as Embree's own `pathtracer` runs. */
+        bool retrace_leaks = true;
         /** @brief Reads the fields present in @p fn; an unknown key or a value check()
         refuses is an error. */
         void read(const FileNode& fn);
