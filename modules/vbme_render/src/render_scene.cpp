@@ -470,9 +470,25 @@ void RenderSceneImpl::fillHit(unsigned geom, unsigned prim, float u, float v, fl
     const GeometryRec& g = geoms_[geom];
     const uint32_t* tri = &g.idx[3 * size_t(prim)];
     const float b1 = u, b2 = v, b0 = 1.f - b1 - b2;
-    const Vec3f v0 = g.vertex(tri[0]), v1 = g.vertex(tri[1]), v2 = g.vertex(tri[2]);
     hit.t = t;
+#if defined(__SSE2__)
+    // The point with 4-wide loads and arithmetic (the fourth lane is the next vertex's x, or the
+    // padding float after the last vertex, and is dropped): the same operations in the same
+    // order per coordinate as the scalar code, so the same bits, in a third of the instructions.
+    {
+        const float* pos = g.pos.data();
+        const __m128 p = _mm_add_ps(
+            _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(pos + 3 * size_t(tri[0])), _mm_set1_ps(b0)),
+                       _mm_mul_ps(_mm_loadu_ps(pos + 3 * size_t(tri[1])), _mm_set1_ps(b1))),
+            _mm_mul_ps(_mm_loadu_ps(pos + 3 * size_t(tri[2])), _mm_set1_ps(b2)));
+        alignas(16) float pv[4];
+        _mm_store_ps(pv, p);
+        hit.p = Vec3f(pv[0], pv[1], pv[2]);
+    }
+#else
+    const Vec3f v0 = g.vertex(tri[0]), v1 = g.vertex(tri[1]), v2 = g.vertex(tri[2]);
     hit.p = v0 * b0 + v1 * b1 + v2 * b2;
+#endif
     const Vec3f ng = g.face_normal[prim];
     hit.ng = ng;
     if (!g.nrm.empty()) {
