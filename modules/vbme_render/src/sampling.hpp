@@ -12,6 +12,9 @@
 #include <cstdint>
 #include <cstring>
 #include <vector>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include <opencv2/core.hpp>
 
@@ -82,6 +85,14 @@ inline Vec2f concentricDisk(const Vec2f& u, float& radius) {
     // φ = (π/4)(ox/oy), i.e. (cos θ, sin θ) = (sin φ, cos φ). The wedge is a coin flip per
     // sample: chosen by bit masks, not a branch that mispredicts half the time; |φ| ≤ π/4
     // needs no range reduction.
+#if defined(__SSE2__)
+    // the mask and the choices in SSE registers (no round trip through integer registers)
+    const __m128 m = _mm_cmpgt_ss(_mm_set_ss(std::abs(ox)), _mm_set_ss(std::abs(oy)));
+    auto pick = [m](float a, float b) {  // m ? a : b
+        return _mm_cvtss_f32(
+            _mm_or_ps(_mm_and_ps(m, _mm_set_ss(a)), _mm_andnot_ps(m, _mm_set_ss(b))));
+    };
+#else
     const uint32_t m = std::abs(ox) > std::abs(oy) ? 0xffffffffu : 0u;
     auto pick = [m](float a, float b) {  // m ? a : b
         uint32_t ia, ib;
@@ -92,6 +103,7 @@ inline Vec2f concentricDisk(const Vec2f& u, float& radius) {
         std::memcpy(&f, &r, 4);
         return f;
     };
+#endif
     const float r = pick(ox, oy);
     radius = std::abs(r);
     float sn, cs;
