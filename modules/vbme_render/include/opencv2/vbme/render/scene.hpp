@@ -57,7 +57,8 @@ built once and shared by every render of it.
   lit side so that a light lying on a wall is not hidden by it), so paths can hit them.
 
 Two Embree scenes share the geometry buffers: one with everything, one without the
-`objects:` meshes (built on first use), for the two passes of differential rendering.
+`objects:` meshes (built on first use), for the two passes of differential rendering; with
+Params::retrace_leaks, a robust copy of each is built when a first ray needs it.
 */
 class CV_EXPORTS RenderScene {
 public:
