@@ -144,7 +144,9 @@ TEST(RenderPathBatch, AovsSameBits) {
         Renderer::create(p)->render(*rs, s.camera, img);
         ASSERT_FALSE(img.albedo.empty());
         EXPECT_GT(norm(img.albedo, NORM_INF), 0.0);
-        if (with_objects) EXPECT_GT(norm(img.object, NORM_INF), 0.0);  // objects were met
+        if (with_objects) {
+            EXPECT_GT(norm(img.object, NORM_INF), 0.0);  // objects were met
+        }
         expectSameImages(ref, img, with_objects ? "with objects" : "without objects");
     }
 }
