@@ -47,25 +47,33 @@ Room truthRoom() {
     return r;
 }
 
+// Clicks where the lens of c shows the point (c.project() when c.k1 = 0).
 std::string pt(const Camera& c, double x, double y, double z) {
-    const Point2d p = c.project(Vec3d(x, y, z));
+    const Point2d p = c.projectDistorted(Vec3d(x, y, z));
     return format("[%.4f, %.4f]", p.x, p.y);
 }
 
 std::string seg(const Camera& c, Vec3d a, Vec3d b) {
-    const Point2d p = c.project(a), q = c.project(b);
+    const Point2d p = c.projectDistorted(a), q = c.projectDistorted(b);
     return format("[%.4f, %.4f, %.4f, %.4f]", p.x, p.y, q.x, q.y);
 }
 
-/** The annotation a person would click on the truth's picture, as the page sends it. */
-std::string annotationJson(const Camera& c, bool with_room = true) {
-    std::string j = "{\"camera_height\": 1.45, \"lines\": [";
+/** The annotation a person would click on the truth's picture, as the page sends it (through
+the lens of c, saying its k1, when c.k1 != 0; @p say_k1 false leaves k1 out). */
+std::string annotationJson(const Camera& c, bool with_room = true, bool say_k1 = true,
+                           bool more_lines = false) {
+    std::string j = "{\"camera_height\": 1.45, ";
+    if (c.k1 != 0 && say_k1) j += format("\"k1\": %.17g, ", c.k1);
+    j += "\"lines\": [";
+    // more_lines: a third segment per group (with two segments
+    // per direction any focal makes them meet: a lens's k1 leaves the focal undetermined)
     j += "{\"name\": \"floor_x\", \"axis\": \"horizontal\", \"segments\": [" +
          seg(c, {-1.8, 2.0, 0}, {-0.5, 2.0, 0}) + ", " + seg(c, {-1.8, 3.0, 0}, {-0.5, 3.0, 0}) +
-         "]},";
+         (more_lines ? ", " + seg(c, {-1.9, 2.5, 0}, {-0.3, 2.5, 0}) : std::string()) + "]},";
     j += "{\"name\": \"floor_y\", \"axis\": \"any\", \"segments\": [" +
          seg(c, {-1.5, 1.5, 0}, {-1.5, 3.0, 0}) + ", " + seg(c, {-0.5, 1.5, 0}, {-0.5, 3.0, 0}) +
-         "]}]";
+         (more_lines ? ", " + seg(c, {-1.0, 1.6, 0}, {-1.0, 3.1, 0}) : std::string()) + "]}";
+    j += "]";
     if (with_room) {
         j += ", \"room\": {\"floor_edges\": {\"back\": [" + pt(c, -1.2, 3.2, 0) + ", " +
              pt(c, 0.2, 3.2, 0) + "]}, \"wall_corners\": [{\"walls\": [\"back\", \"left\"], " +
@@ -182,6 +190,122 @@ TEST(AppAnnotate, CalibrationRoundTripOnKnownCamera) {
         for (const auto& v : g["residuals"])
             EXPECT_LT((double)v, 0.1);
     EXPECT_EQ(fb["warnings"].size(), 0u) << r.body;
+}
+
+// Clicks on a frame filmed through a barrel lens (k1 = -0.2; the truth's points moved where
+// that lens shows them) with the annotation's k1: the live calibration (api/calibrate) finds
+// the focal `vbme calibrate` (calibrateFrame) finds on the same annotation, and the truth's;
+// the vanishing points, the horizon curve and the light it returns are where the lens shows
+// them on the clicked frame. The same clicks with k1 left out: the focal is far off.
+TEST(AppAnnotate, LiveCalibrationUsesTheAnnotationsK1) {
+    Api api;
+    Camera lens = api.cam;
+    lens.k1 = -0.2;
+    const std::string with_k1 = annotationJson(lens, true, true, true),
+                      without_k1 = annotationJson(lens, true, false, true);
+    const AnnotateReply r = api.call("POST", "api/calibrate", calibrateBody(with_k1));
+    ASSERT_EQ(r.status, 200) << r.body;
+    FileStorage fb = Api::parse(r);
+    ASSERT_TRUE((int)fb["ok"]) << r.body;
+    const double f_live = (double)fb["focal"];
+    // vbme calibrate's focal on the same annotation
+    FileStorage fa(with_k1, FileStorage::READ | FileStorage::MEMORY | FileStorage::FORMAT_JSON);
+    FrameAnnotation ann;
+    ann.read(fa.root(), "annotation");
+    ASSERT_EQ(ann.k1, lens.k1);
+    const Scene cli = calibrateFrame(drawSyntheticRoom(api.cam, truthRoom(), 0.5, 1.0, 3), ann,
+                                     FrameCalibrationOptions());
+    const double f_cli = cli.camera.K(0, 0);
+    FileStorage fb0 = Api::parse(api.call("POST", "api/calibrate", calibrateBody(without_k1)));
+    ASSERT_TRUE((int)fb0["ok"]);
+    const double f_ignored = (double)fb0["focal"];
+    std::printf(
+        "clicked through a k1 -0.2 lens: live focal %.4f px, vbme calibrate %.4f px (true 450); "
+        "k1 left out: %.4f px (%.2f %% off); rms %.4f px, %.4f px\n",
+        f_live, f_cli, f_ignored, 100 * std::abs(f_ignored / 450 - 1), (double)fb["rms_px"],
+        (double)fb0["rms_px"]);
+    EXPECT_LT(std::abs(f_live / f_cli - 1), 1e-3);
+    EXPECT_LT(std::abs(f_live / 450 - 1), 1e-3);
+    EXPECT_GT(std::abs(f_ignored / 450 - 1), 100 * std::abs(f_live / 450 - 1));
+    EXPECT_GT(std::abs(f_ignored / 450 - 1), 0.01);
+    EXPECT_NEAR((double)fb["fov_deg"][0], 2 * std::atan2(320, f_cli) * 180 / CV_PI, 0.05);
+    EXPECT_EQ((double)fb["k1"], lens.k1);
+    // the vanishing points: undistorted, the truth's; on the clicked frame the lens's image of
+    // the truth's, or none where the barrel lens folds before it
+    int shown = 0;
+    for (int a = 0; a < 2; ++a) {
+        const FileNode vp = fb["vanishing_points"][a];
+        ASSERT_FALSE(vp["point_undistorted"].empty()) << "axis " << a;
+        const Vec3d t = api.cam.K * Vec3d(api.cam.R(0, a), api.cam.R(1, a), api.cam.R(2, a));
+        const Point2d u(t[0] / t[2], t[1] / t[2]);
+        EXPECT_LT(std::hypot((double)vp["point_undistorted"][0] - u.x,
+                             (double)vp["point_undistorted"][1] - u.y),
+                  2.0)
+            << "axis " << a;
+        const double r2 =
+            std::pow((u.x - api.cam.K(0, 2)) / 450, 2) + std::pow((u.y - api.cam.K(1, 2)) / 450, 2);
+        EXPECT_EQ(vp["point"].empty(), r2 >= 1 / (3 * 0.2)) << "axis " << a;
+        if (vp["point"].empty()) continue;
+        ++shown;
+        const Point2d d = lens.distortPixel(u);
+        EXPECT_LT(std::hypot((double)vp["point"][0] - d.x, (double)vp["point"][1] - d.y), 2.0)
+            << "axis " << a;
+    }
+    EXPECT_GE(shown, 1);
+    // the horizon curve: undistorted, on the truth's horizon line (through the vanishing points
+    // of world (1, 1, 0) and (1, -1, 0))
+    const Vec3d h1 = api.cam.K * (api.cam.R * Vec3d(1, 1, 0)),
+                h2 = api.cam.K * (api.cam.R * Vec3d(1, -1, 0));
+    const Vec3d hl = (h1 / h1[2]).cross(h2 / h2[2]);
+    const FileNode curve = fb["horizon_curve"];
+    ASSERT_GE((int)curve.size(), 10);
+    double worst = 0;
+    for (const auto& q : curve) {
+        const Point2d u = lens.undistortPixel(Point2d((double)q[0], (double)q[1]));
+        worst =
+            std::max(worst, std::abs(hl[0] * u.x + hl[1] * u.y + hl[2]) / std::hypot(hl[0], hl[1]));
+    }
+    EXPECT_LT(worst, 0.5) << "horizon curve off the lens's horizon";
+    // the room's edges bent by the lens: pieces whose ends, undistorted, lie on the truth's
+    // box edges (pinhole lines through projected corners)
+    const Room box = truthRoom();
+    std::vector<Vec3d> edge_lines;
+    for (int i = 0; i < 8; ++i)
+        for (int bit : {1, 2, 4})
+            if (!(i & bit)) {
+                auto corner = [&](int k) {
+                    return Vec3d(k & 1 ? box.max[0] : box.min[0], k & 2 ? box.max[1] : box.min[1],
+                                 k & 4 ? box.max[2] : box.min[2]);
+                };
+                const Vec3d A = api.cam.R * corner(i) + api.cam.t,
+                            B = api.cam.R * corner(i | bit) + api.cam.t;
+                Vec3d l = (api.cam.K * A).cross(api.cam.K * B);
+                edge_lines.push_back(l / std::hypot(l[0], l[1]));
+            }
+    const FileNode edges = fb["room"]["edges"];
+    EXPECT_GT((int)edges.size(), 24);  // 16 pieces per visible edge
+    double edge_off = 0;
+    for (const auto& e : edges)
+        for (int k = 0; k < 4; k += 2) {
+            const Point2d u = lens.undistortPixel(Point2d((double)e[k], (double)e[k + 1]));
+            double best = 1e9;
+            for (const Vec3d& l : edge_lines)
+                best = std::min(best, std::abs(l[0] * u.x + l[1] * u.y + l[2]));
+            edge_off = std::max(edge_off, best);
+        }
+    std::printf("%d edge pieces, worst %.3f px off the truth's edges (undistorted)\n",
+                (int)edges.size(), edge_off);
+    EXPECT_LT(edge_off, 1.0);
+    // the light's corner where it was clicked (the lens's image), the residuals of exact clicks
+    ASSERT_EQ((int)fb["lights"].size(), 1);
+    const Point2d c0 = lens.projectDistorted(Vec3d(-0.8, 3.2, 1.0));
+    bool corner_found = false;
+    for (const auto& p : fb["lights"][0]["polygon"])
+        corner_found = corner_found || std::hypot((double)p[0] - c0.x, (double)p[1] - c0.y) < 1.0;
+    EXPECT_TRUE(corner_found);
+    for (const auto& g : fb["groups"])
+        for (const auto& v : g["residuals"])
+            EXPECT_LT((double)v, 0.1);
 }
 
 TEST(AppAnnotate, OutlierSegmentAndMissingConstraintsAreReported) {

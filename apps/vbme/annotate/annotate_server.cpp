@@ -165,6 +165,32 @@ bool segmentsCross(cv::Point2d a, cv::Point2d b, cv::Point2d c, cv::Point2d d) {
     return o1 * o2 < 0 && o3 * o4 < 0;
 }
 
+/** Whether the lens of @p cam (k1) maps the pinhole pixel @p p one-to-one into the clicked frame:
+always for k1 ≥ 0; for barrel distortion (k1 < 0) inside the fold, |x|² < 1 / (3 |k1|). */
+bool insideFold(const Camera& cam, const cv::Point2d& p) {
+    if (cam.k1 >= 0) return true;
+    const double x = (p.x - cam.K(0, 2)) / cam.K(0, 0), y = (p.y - cam.K(1, 2)) / cam.K(1, 1);
+    return x * x + y * y < 1 / (3 * std::abs(cam.k1));
+}
+
+/** The straight pinhole segment a-b (undistorted pixels) as the lens of @p cam shows it in the
+clicked frame: @p n pieces [x1, y1, x2, y2] between distorted points (pieces with an end beyond
+the fold are left out). One piece, a-b itself, when k1 = 0. */
+json distortedPieces(const Camera& cam, const cv::Point2d& a, const cv::Point2d& b, int n = 16) {
+    json pieces = json::array();
+    if (cam.k1 == 0) {
+        pieces.push_back(json::array({a.x, a.y, b.x, b.y}));
+        return pieces;
+    }
+    for (int i = 0; i < n; ++i) {
+        const cv::Point2d p = a + (b - a) * (double(i) / n), q = a + (b - a) * (double(i + 1) / n);
+        if (!insideFold(cam, p) || !insideFold(cam, q)) continue;
+        const cv::Point2d dp = cam.distortPixel(p), dq = cam.distortPixel(q);
+        pieces.push_back(json::array({dp.x, dp.y, dq.x, dq.y}));
+    }
+    return pieces;
+}
+
 /** The image line through a homogeneous point and a pixel, clipped to the image, or an empty
 array when the point is at infinity in no usable way. */
 json horizonLine(const Camera& cam) {
@@ -223,7 +249,8 @@ cv::Vec3d consensusVanishingPoint(const std::vector<cv::Vec4d>& segs) {
     return best;
 }
 
-/** The twelve edges of the room box projected (clipped to the part in front of the camera). */
+/** The twelve edges of the room box projected (clipped to the part in front of the camera); with
+a lens distortion (cam.k1) each edge is a chain of short pieces as the lens shows it. */
 json boxEdges(const Camera& cam, const Room& room) {
     json edges = json::array();
     const cv::Vec3d lo = room.min, hi = room.max;
@@ -235,7 +262,8 @@ json boxEdges(const Camera& cam, const Room& room) {
             if (!(i & bit)) {
                 cv::Point2d a, b;
                 if (projectSegment(cam, corner(i), corner(i | bit), a, b))
-                    edges.push_back(json::array({a.x, a.y, b.x, b.y}));
+                    for (const auto& piece : distortedPieces(cam, a, b))
+                        edges.push_back(piece);
             }
     return edges;
 }
@@ -506,6 +534,7 @@ AnnotateReply AnnotateSession::calibrate(const AnnotateRequest& r) const {
             "known faces to locate the box");
 
     FrameCalibration fc;
+    std::vector<LineGroup> lines = ann.lines;
     bool have_camera = false;
     if (ann.lines.size() >= 2 || (ann.lines.size() == 1 && false)) {
         VanishingPointCalibrator::Params vp;
@@ -514,7 +543,11 @@ AnnotateReply AnnotateSession::calibrate(const AnnotateRequest& r) const {
             vp.principal_point = ann.principal_point;
         vp.principal_point_from_orthocenter = ann.principal_point_from_orthocenter;
         try {
-            fc = VanishingPointCalibrator::create(vp)->calibrate(ann.lines, size);
+            // With the annotation's k1 the clicks are undistorted as vbme calibrate does
+            // (calibrateLinesWithK1): K, R, the vanishing points and rms_px are those of the
+            // undistorted frame, `lines` the clicked segments undistorted at the focal found.
+            fc = calibrateLinesWithK1(*VanishingPointCalibrator::create(vp), ann.lines, size,
+                                      ann.k1, &lines);
             have_camera = true;
         } catch (const cv::Exception& e) {
             warnings.push_back(e.err);
@@ -522,6 +555,7 @@ AnnotateReply AnnotateSession::calibrate(const AnnotateRequest& r) const {
     }
     if (have_camera) {
         Camera cam = fc.camera();
+        cam.k1 = fc.k1;
         // As vbme calibrate without a room: the given height, else the default one.
         placeCamera(cam, ann.camera_height > 0 ? ann.camera_height
                                                : FrameCalibrationOptions().default_camera_height);
@@ -531,14 +565,39 @@ AnnotateReply AnnotateSession::calibrate(const AnnotateRequest& r) const {
                           2 * std::atan2(size.height * 0.5, f) * 180 / CV_PI};
         out["principal_point"] = {cam.K(0, 2), cam.K(1, 2)};
         out["rms_px"] = fc.rms_px;
+        out["k1"] = cam.k1;
+        // The horizon: a straight line of the undistorted frame; with k1 also as the curve the
+        // clicked frame shows (points), which the page draws.
         out["horizon"] = horizonLine(cam);
+        if (cam.k1 != 0 && out["horizon"].size() == 4) {
+            const json& hl = out["horizon"];
+            const double w = size.width;
+            const cv::Point2d a(hl[0].get<double>(), hl[1].get<double>()),
+                b(hl[2].get<double>(), hl[3].get<double>());
+            // beyond the frame's sides: barrel distortion pulls them in
+            const cv::Point2d u = (b - a) * (1.0 / std::max(1.0, b.x - a.x));
+            json curve = json::array();
+            for (const auto& piece : distortedPieces(cam, a - u * w, b + u * w, 48)) {
+                if (curve.empty()) curve.push_back({piece[0], piece[1]});
+                curve.push_back({piece[2], piece[3]});
+            }
+            out["horizon_curve"] = curve;
+        }
         json vps = json::array();
         for (int a = 0; a < 3; ++a) {
             const cv::Vec3d& v = fc.vanishing_points[a];
             json e{{"axis", a}, {"support", fc.support[a]}};
-            if (std::abs(v[2]) > 1e-9)
-                e["point"] = {v[0] / v[2], v[1] / v[2]};
-            else
+            if (std::abs(v[2]) > 1e-9) {
+                // `point` in the clicked frame (the limit of the distorted images of the
+                // direction's lines); with k1 also `point_undistorted`, and no `point` when the
+                // lens's map folds before it (barrel distortion, far vanishing points).
+                const cv::Point2d p(v[0] / v[2], v[1] / v[2]);
+                if (cam.k1 != 0) e["point_undistorted"] = {p.x, p.y};
+                if (insideFold(cam, p)) {
+                    const cv::Point2d d = cam.distortPixel(p);
+                    e["point"] = {d.x, d.y};
+                }
+            } else
                 e["direction"] = {v[0], v[1]};
             vps.push_back(e);
         }
@@ -549,9 +608,11 @@ AnnotateReply AnnotateSession::calibrate(const AnnotateRequest& r) const {
         // Groups of three or more segments are measured against their consensus vanishing
         // point (the intersection of the pair that most other segments agree with), so that
         // an error is not absorbed by the least-squares fit it spoils.
-        std::vector<cv::Vec3d> consensus(ann.lines.size());
-        for (size_t g = 0; g < ann.lines.size(); ++g)
-            consensus[g] = consensusVanishingPoint(ann.lines[g].segments);
+        // With k1 they are measured on the undistorted segments (pixels of the undistorted
+        // frame), where the lines are straight.
+        std::vector<cv::Vec3d> consensus(lines.size());
+        for (size_t g = 0; g < lines.size(); ++g)
+            consensus[g] = consensusVanishingPoint(lines[g].segments);
         json residuals = json::array();
         std::vector<double> all;
         size_t k = 0;
@@ -560,7 +621,7 @@ AnnotateReply AnnotateSession::calibrate(const AnnotateRequest& r) const {
             for (size_t s = 0; s < ann.lines[g].segments.size(); ++s, ++k) {
                 const int axis = k < fc.labels.size() ? fc.labels[k] : -1;
                 rg["axis"] = axis;
-                const auto& segs = ann.lines[g].segments;
+                const auto& segs = lines[g].segments;
                 double res = 0;
                 if (segs.size() >= 3) {
                     res = segmentResidual(segs[s], consensus[g]);
@@ -620,7 +681,7 @@ AnnotateReply AnnotateSession::calibrate(const AnnotateRequest& r) const {
                     for (const Light& L : scene.lights) {
                         json poly = json::array();
                         for (const cv::Vec3d& X : L.corners)
-                            poly.push_back(point(cam.project(X)));
+                            poly.push_back(point(cam.projectDistorted(X)));
                         lights.push_back(
                             {{"polygon", poly},
                              {"radiance", {L.radiance[0], L.radiance[1], L.radiance[2]}}});

@@ -319,6 +319,88 @@ void FrameAnnotation::write(const std::string& path) const {
     out.commit();
 }
 
+FrameCalibration calibrateLinesWithK1(const VanishingPointCalibrator& cal,
+                                      const std::vector<LineGroup>& groups, Size size, double k1,
+                                      std::vector<LineGroup>* undistorted) {
+    if (k1 == 0) {
+        if (undistorted) *undistorted = groups;
+        return cal.calibrate(groups, size);
+    }
+    // k1 is relative to K⁻¹ p, so the undistortion depends on the focal length being sought:
+    // the focal is the one whose undistorted lines meet their vanishing points best (the
+    // calibration's rms residual, 0 for exact clicks at the true focal; a fixed-point iteration
+    // of "calibrate, undistort with the focal found" settled on a wrong second root, 2.6 % off).
+    // The distorted frame's calibration: the start of the search and its principal point.
+    FrameCalibration fc = cal.calibrate(groups, size);
+    std::vector<LineGroup> lines_at;
+    auto calibrateAt = [&](double f) {
+        Camera lens = fc.camera();
+        lens.K(0, 0) = lens.K(1, 1) = f;
+        lens.k1 = k1;
+        std::vector<LineGroup> lines = groups;
+        for (LineGroup& g : lines) {
+            std::vector<Vec4d> kept;
+            for (const Vec4d& s : g.segments) {
+                const Point2d a = lens.undistortPixel(Point2d(s[0], s[1]));
+                const Point2d b = lens.undistortPixel(Point2d(s[2], s[3]));
+                if (!std::isfinite(a.x) || !std::isfinite(b.x)) {  // beyond the fold:
+                    FrameCalibration bad;                          // k1 does not fit this focal
+                    bad.rms_px = std::numeric_limits<double>::infinity();
+                    return bad;
+                }
+                kept.emplace_back(a.x, a.y, b.x, b.y);
+            }
+            g.segments = kept;
+        }
+        try {
+            FrameCalibration r = cal.calibrate(lines, size);
+            lines_at = lines;
+            return r;
+        } catch (const cv::Exception&) {  // too few lines left at this focal
+            FrameCalibration bad;
+            bad.rms_px = std::numeric_limits<double>::infinity();
+            return bad;
+        }
+    };
+    // a log grid around the distorted frame's focal, then golden-section search
+    const double f0 = fc.focal();
+    const int n = 25;
+    std::vector<double> fs(n), rms(n);
+    int best = 0;
+    for (int i = 0; i < n; ++i) {
+        fs[i] = f0 * std::pow(2.0, -1.5 + 2.0 * i / (n - 1));  // f0 / 2.8 … 1.4 f0
+        rms[i] = calibrateAt(fs[i]).rms_px;
+        if (rms[i] < rms[best]) best = i;
+    }
+    double lo = fs[std::max(0, best - 1)], hi = fs[std::min(n - 1, best + 1)];
+    const double g = (std::sqrt(5.0) - 1) / 2;
+    double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+    double r1 = calibrateAt(x1).rms_px, r2 = calibrateAt(x2).rms_px;
+    for (int it = 0; it < 40 && hi - lo > 1e-4 * f0; ++it) {
+        if (r1 < r2) {
+            hi = x2;
+            x2 = x1;
+            r2 = r1;
+            x1 = hi - g * (hi - lo);
+            r1 = calibrateAt(x1).rms_px;
+        } else {
+            lo = x1;
+            x1 = x2;
+            r1 = r2;
+            x2 = lo + g * (hi - lo);
+            r2 = calibrateAt(x2).rms_px;
+        }
+    }
+    fc = calibrateAt(0.5 * (lo + hi));
+    if (!std::isfinite(fc.rms_px))
+        CV_Error(Error::StsBadArg,
+                 "the clicked lines, undistorted with the annotation's k1, "
+                 "do not calibrate");
+    fc.k1 = k1;
+    if (undistorted) *undistorted = lines_at;
+    return fc;
+}
+
 Scene calibrateFrame(InputArray image_, const FrameAnnotation& ann,
                      const FrameCalibrationOptions& opt, FrameCalibration* calibration) {
     Mat image = image_.getMat();
@@ -346,78 +428,14 @@ Scene calibrateFrame(InputArray image_, const FrameAnnotation& ann,
         CV_Error(Error::StsBadArg,
                  "the annotation has no 'lines' and automatic detection is off; "
                  "add line groups or detect them automatically (--auto)");
-    // A known lens (the annotation's k1) with clicked lines: the lines are taken undistorted.
-    // k1 is relative to K⁻¹ p, so the undistortion depends on the focal length being sought:
-    // the focal is the one whose undistorted lines meet their vanishing points best (the
-    // calibration's rms residual, 0 for exact clicks at the true focal; a fixed-point iteration
-    // of "calibrate, undistort with the focal found" settled on a wrong second root, 2.6 % off).
+    // A known lens (the annotation's k1) with clicked lines: the lines are taken undistorted
+    // (calibrateLinesWithK1(), which the annotator's live calibration uses too).
     if (ann.k1 != 0 && !vp.estimate_distortion) {
         if (ann.lines.empty())
             CV_Error(Error::StsBadArg,
                      "the annotation's k1 is used with its clicked lines; for automatic detection "
                      "estimate it (--distortion k1) or give the lines");
-        auto calibrateAt = [&](double f) {
-            Camera lens = fc.camera();
-            lens.K(0, 0) = lens.K(1, 1) = f;
-            lens.k1 = ann.k1;
-            std::vector<LineGroup> lines = ann.lines;
-            for (LineGroup& g : lines) {
-                std::vector<Vec4d> kept;
-                for (const Vec4d& s : g.segments) {
-                    const Point2d a = lens.undistortPixel(Point2d(s[0], s[1]));
-                    const Point2d b = lens.undistortPixel(Point2d(s[2], s[3]));
-                    if (!std::isfinite(a.x) || !std::isfinite(b.x)) {  // beyond the fold:
-                        FrameCalibration bad;                          // k1 does not fit this focal
-                        bad.rms_px = std::numeric_limits<double>::infinity();
-                        return bad;
-                    }
-                    kept.emplace_back(a.x, a.y, b.x, b.y);
-                }
-                g.segments = kept;
-            }
-            try {
-                return cal->calibrate(lines, size);
-            } catch (const cv::Exception&) {  // too few lines left at this focal
-                FrameCalibration bad;
-                bad.rms_px = std::numeric_limits<double>::infinity();
-                return bad;
-            }
-        };
-        // a log grid around the distorted frame's focal, then golden-section search
-        const double f0 = fc.focal();
-        const int n = 25;
-        std::vector<double> fs(n), rms(n);
-        int best = 0;
-        for (int i = 0; i < n; ++i) {
-            fs[i] = f0 * std::pow(2.0, -1.5 + 2.0 * i / (n - 1));  // f0 / 2.8 … 1.4 f0
-            rms[i] = calibrateAt(fs[i]).rms_px;
-            if (rms[i] < rms[best]) best = i;
-        }
-        double lo = fs[std::max(0, best - 1)], hi = fs[std::min(n - 1, best + 1)];
-        const double g = (std::sqrt(5.0) - 1) / 2;
-        double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
-        double r1 = calibrateAt(x1).rms_px, r2 = calibrateAt(x2).rms_px;
-        for (int it = 0; it < 40 && hi - lo > 1e-4 * f0; ++it) {
-            if (r1 < r2) {
-                hi = x2;
-                x2 = x1;
-                r2 = r1;
-                x1 = hi - g * (hi - lo);
-                r1 = calibrateAt(x1).rms_px;
-            } else {
-                lo = x1;
-                x1 = x2;
-                r1 = r2;
-                x2 = lo + g * (hi - lo);
-                r2 = calibrateAt(x2).rms_px;
-            }
-        }
-        fc = calibrateAt(0.5 * (lo + hi));
-        if (!std::isfinite(fc.rms_px))
-            CV_Error(Error::StsBadArg,
-                     "the clicked lines, undistorted with the annotation's k1, "
-                     "do not calibrate");
-        fc.k1 = ann.k1;
+        fc = calibrateLinesWithK1(*cal, ann.lines, size, ann.k1);
     }
     Scene scene;
     scene.image_size = size;

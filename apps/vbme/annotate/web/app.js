@@ -258,7 +258,9 @@ function draw() {
   const fb = state.feedback;
   // Live feedback underneath the user's marks.
   if (fb && fb.ok) {
-    if (fb.horizon && fb.horizon.length === 4) line(...fb.horizon, '#ff40ff', 1, [6, 4]);
+    // With a lens distortion (k1) the horizon is a curve of the clicked frame.
+    if (fb.horizon_curve) { ctx.setLineDash([6, 4]); polygon(fb.horizon_curve, '#ff40ff', false); ctx.setLineDash([]); }
+    else if (fb.horizon && fb.horizon.length === 4) line(...fb.horizon, '#ff40ff', 1, [6, 4]);
     if (fb.room) for (const e of fb.room.edges) line(...e, '#ffffff', 1.5);
     if (fb.lights) for (const l of fb.lights) polygon(l.polygon, '#ffe14d', true, 'rgba(255,225,77,0.15)');
     for (const vp of fb.vanishing_points || []) if (vp.point) {

@@ -370,6 +370,29 @@ struct CV_EXPORTS FrameCalibrationOptions {
     void check() const;
 };
 
+/** @brief Calibrates line groups clicked in a frame whose lens has a known radial distortion
+@p k1 (FrameAnnotation::k1): the segments are undistorted (Camera::undistortPixel) before the
+vanishing points are fitted. k1 is relative to `K⁻¹ p`, so the undistortion depends on the focal
+length being sought: the focal is the one whose undistorted segments meet their vanishing
+points best (smallest `rms_px`; a log grid of 25 focals from f0/2.8 to 1.4 f0 around the
+distorted frame's focal f0, then a golden-section search to 1e-4 f0). The principal point is
+the distorted frame's calibration's. calibrateFrame() and the annotator's live calibration
+(`vbme annotate`, api/calibrate) both use it.
+@param calibrator its Params apply to every fit (given focal, principal point, ...).
+@param groups the clicked segments, in pixels of the distorted (clicked) frame.
+@param image_size the frame's size.
+@param k1 the lens's coefficient; 0 gives `calibrator.calibrate(groups, image_size)`.
+@param undistorted if not null, receives @p groups undistorted at the focal found: the
+segments (pixels of the undistorted frame) that the result's vanishing points and `rms_px`
+refer to.
+@return the calibration of the undistorted (pinhole) frame — K, R, vanishing points and
+`rms_px` there — with `k1` set; `segments` and `labels` are those of the undistorted groups.
+Throws cv::Exception when the groups do not calibrate at any focal searched. */
+CV_EXPORTS FrameCalibration calibrateLinesWithK1(const VanishingPointCalibrator& calibrator,
+                                                 const std::vector<LineGroup>& groups,
+                                                 Size image_size, double k1,
+                                                 std::vector<LineGroup>* undistorted = nullptr);
+
 /** @brief Annotation (and/or automatic detection) → scene: camera, room, lights.
 
 User lines override automatic detection. With the camera height (or, failing it, the room
