@@ -228,6 +228,18 @@ TEST(AppAnnotate, LiveCalibrationUsesTheAnnotationsK1) {
     EXPECT_LT(std::abs(f_live / 450 - 1), 1e-3);
     EXPECT_GT(std::abs(f_ignored / 450 - 1), 100 * std::abs(f_live / 450 - 1));
     EXPECT_GT(std::abs(f_ignored / 450 - 1), 0.01);
+    // two groups of two segments: any focal fits them exactly, the page says so
+    FileStorage fb2 =
+        Api::parse(api.call("POST", "api/calibrate", calibrateBody(annotationJson(lens))));
+    ASSERT_TRUE((int)fb2["ok"]);
+    std::printf("two groups of two segments with k1: live focal %.4f px (%.2f %% off)\n",
+                (double)fb2["focal"], 100 * std::abs((double)fb2["focal"] / 450 - 1));
+    bool warned = false;
+    for (const auto& w : fb2["warnings"])
+        warned = warned || ((std::string)w).find("do not determine the focal") != std::string::npos;
+    EXPECT_TRUE(warned);
+    for (const auto& w : fb["warnings"])
+        EXPECT_EQ(((std::string)w).find("do not determine the focal"), std::string::npos);
     EXPECT_NEAR((double)fb["fov_deg"][0], 2 * std::atan2(320, f_cli) * 180 / CV_PI, 0.05);
     EXPECT_EQ((double)fb["k1"], lens.k1);
     // the vanishing points: undistorted, the truth's; on the clicked frame the lens's image of
