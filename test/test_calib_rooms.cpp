@@ -258,6 +258,9 @@ struct Results {
     // ambiguous when right and when wrong.
     std::vector<double> first_right, first_wrong;
     int ambiguous = 0, amb_right = 0, amb_wrong = 0;
+    // Proposals after the first, and those whose segments or labels are not the first's (the
+    // annotator regroups the first proposal's segments by the one the user chooses).
+    int later_proposals = 0, later_off_segments = 0;
     // The GLOBAL refinement started from the true frame on the detected segments: signed
     // relative focal drift and the refinement's own relative focal sigma, per image where the
     // search answered.
@@ -310,6 +313,12 @@ const Results& results() {
                         (right ? r.amb_right : r.amb_wrong) += p.ambiguous;
                     }
                     r.ambiguous += p.ambiguous;
+                    if (k > 0) {
+                        ++r.later_proposals;
+                        r.later_off_segments +=
+                            p.calibration.segments != props[0].calibration.segments ||
+                            p.calibration.labels.size() != props[0].calibration.segments.size();
+                    }
                 }
             } catch (const cv::Exception& e) {
                 og.error = e.err;
@@ -662,6 +671,17 @@ TEST(CalibRooms, PlumbLineDistortionWithinTenPercent) {
     ASSERT_GE(rel_found.size(), rel.size() / 2);
     EXPECT_LE(percentile(rel_found, 0.5), 0.10);
     EXPECT_LT(percentile(fk, 0.5), percentile(fn, 0.5));
+}
+
+// The proposals of one image label the same segments (those of the first): the FLD pass's
+// frame and the LSD pass's come from different segment sets, and the annotator's page can only
+// regroup the segments it shows (it ignored a proposal whose labels did not match them).
+TEST(CalibRooms, ProposalsLabelTheFirstProposalsSegments) {
+    const Results& r = results();
+    std::printf("proposals after the first: %d, on other segments: %d\n", r.later_proposals,
+                r.later_off_segments);
+    EXPECT_GT(r.later_proposals, 0);
+    EXPECT_EQ(r.later_off_segments, 0);
 }
 
 }  // namespace

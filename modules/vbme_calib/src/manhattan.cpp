@@ -947,6 +947,27 @@ bool sameCalibration(const FrameCalibration& x, const FrameCalibration& y) {
     return true;
 }
 
+/** Labels @p px (pixel segments) by the frame of @p c and makes them its segments, so that
+proposals found on different segment sets (the LSD and LSD + FLD passes) label one set. */
+void labelOnSegments(FrameCalibration& c, const std::vector<Vec4f>& px,
+                     const VanishingPointCalibrator::Params& p) {
+    const double W = std::max(c.image_size.width, c.image_size.height);
+    std::vector<Seg> segs = makeSegs(px, Point2d(c.K(0, 2), c.K(1, 2)), W, p);
+    Frame fr;
+    fr.D = c.R;  // columns: the world axes in the camera, so labels are world axes
+    fr.F = c.K(0, 0) / W;
+    fr.kappa = c.k1 / (fr.F * fr.F);
+    setKappa(segs, fr.kappa);
+    std::vector<int> labels;
+    scoreFrame(segs, fr, &labels);
+    c.segments = px;
+    c.labels = labels;
+    for (int a = 0; a < 3; ++a)
+        c.support[a] = 0;
+    for (int l : labels)
+        if (l >= 0) ++c.support[l];
+}
+
 }  // namespace
 
 std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
@@ -1005,6 +1026,13 @@ std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
         out.insert(out.begin() + 1, alt);
         if ((int)out.size() > max_proposals) out.resize(std::max(1, max_proposals));
     }
+    // One segment set for all proposals (the annotator regroups the first's segments by the
+    // one the user chooses): the other pass's frame labels the first proposal's segments.
+    for (size_t k = 1; k < out.size(); ++k)
+        if (out[k].calibration.segments.size() != out[0].calibration.segments.size() ||
+            !std::equal(out[k].calibration.segments.begin(), out[k].calibration.segments.end(),
+                        out[0].calibration.segments.begin()))
+            labelOnSegments(out[k].calibration, out[0].calibration.segments, p);
     return out;
 }
 
