@@ -652,7 +652,8 @@ std::vector<Seg> makeSegs(const std::vector<Vec4f>& px, const Point2d& pp, doubl
 
 std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Size size,
                                                const VanishingPointCalibrator::Params& p,
-                                               int max_proposals, const Mat& gray) {
+                                               int max_proposals, const Mat& gray,
+                                               const Edgels* shared_edgels) {
     const int n = (int)px.size();
     if (n < 6)
         CV_Error(Error::StsError,
@@ -668,9 +669,10 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Siz
     // Edge pixels (Params::edgel_scoring; manhattan_edgels.hpp): at most 3000, σ 1.5°, ε 0.4.
     // Not with distortion estimation (the edgels are not undistorted).
     const bool use_edgels = p.edgel_scoring && !gray.empty() && !p.estimate_distortion;
-    Edgels edgels;
+    Edgels own_edgels;
     const EdgelModel em;
-    if (use_edgels) edgels = extractEdgels(gray, pp, W, 3000);
+    if (use_edgels && !shared_edgels) own_edgels = extractEdgels(gray, pp, W, 3000);
+    const Edgels& edgels = shared_edgels ? *shared_edgels : own_edgels;
     // Search (at each κ of a grid when distortion is estimated; κ in units of W).
     std::vector<double> kappas = {0.0};
     if (p.estimate_distortion) kappas = {0.0, -0.05, -0.1, -0.2, -0.3, -0.45, -0.6, 0.05, 0.1};
@@ -984,8 +986,19 @@ std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
     // next proposal.
     std::vector<ManhattanProposal> a, b;
     std::string err;
+    // The edge pixels depend on the image alone: extracted once for both passes.
+    Edgels edgels;
+    const bool use_edgels = p.edgel_scoring && !gray.empty() && !p.estimate_distortion;
+    if (use_edgels) {
+        const double W = std::max(gray.cols, gray.rows);
+        const Point2d pp = p.principal_point.x >= 0 && p.principal_point.y >= 0
+                               ? p.principal_point
+                               : Point2d((gray.cols - 1) * 0.5, (gray.rows - 1) * 0.5);
+        edgels = extractEdgels(gray, pp, W, 3000);
+    }
+    const Edgels* shared = use_edgels ? &edgels : nullptr;
     try {
-        a = searchManhattan(segs, gray.size(), p, max_proposals, gray);
+        a = searchManhattan(segs, gray.size(), p, max_proposals, gray, shared);
     } catch (const cv::Exception& e) {
         err = e.err;
     }
@@ -996,7 +1009,7 @@ std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
     const std::vector<Vec4f> segs_fld = ms.withFld();
     if (!segs_fld.empty()) {
         try {
-            b = searchManhattan(segs_fld, gray.size(), p, max_proposals, gray);
+            b = searchManhattan(segs_fld, gray.size(), p, max_proposals, gray, shared);
         } catch (const cv::Exception& e) {
             if (err.empty()) err = e.err;
         }

@@ -13,6 +13,8 @@ namespace cv {
 namespace vbme {
 namespace detail {
 
+struct Edgels;  // manhattan_edgels.hpp
+
 /** 8-bit gray copy (or view) of an 8/16-bit gray/BGR/BGRA image; throws when empty. */
 Mat toGray8(InputArray image);
 
@@ -53,10 +55,13 @@ std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
 
 /** The GLOBAL search on given segments (pixels); proposals best first. Throws with the
 reason when none is plausible. @p gray (8-bit, the image the segments come from) is used when
-params.edgel_scoring is set (manhattan_edgels.hpp); empty: segments only. */
+params.edgel_scoring is set (manhattan_edgels.hpp); empty: segments only. @p shared_edgels
+(if given) are @p gray's edge pixels, extracted once by the caller (extractEdgels with at most
+3000, principal point as in @p params) for several searches on one image. */
 std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& segments, Size size,
                                                const VanishingPointCalibrator::Params& params,
-                                               int max_proposals, const Mat& gray = Mat());
+                                               int max_proposals, const Mat& gray = Mat(),
+                                               const Edgels* shared_edgels = nullptr);
 
 /** The GLOBAL search's refinement (relabelling + robust joint refinement of focal length and
 rotation, no distortion) started from a given frame: @p focal (px) and @p R (cam_from_world,
