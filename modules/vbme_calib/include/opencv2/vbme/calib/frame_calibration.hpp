@@ -174,8 +174,8 @@ public:
         vanishing point alone (the other two directions from the edge pixels, refined by the
         segments with the edgels' focal length as a prior; not with `focal` or `focal_prior`)
         and the hypotheses the edgels score best are refined too; ranking and confidence stay
-        those of the segments. About twice the time. Not with `estimate_distortion`. Measured in
-        doc/vbme_calib.md, "Edge pixels (session 9)". */
+        those of the segments. About 1.5× the CPU time (73.5 vs 47.7 ms per render). Not with
+        `estimate_distortion`. Measured in doc/vbme_calib.md, "Edge pixels (session 9)". */
         bool edgel_scoring = false;
 
         /** @brief Reads the fields present in @p node (others keep their values); an
