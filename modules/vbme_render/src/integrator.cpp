@@ -213,35 +213,9 @@ struct PathState {
     }
 };
 
-/** PixelSampler's numbers (bit for bit) for several samples of one pixel at once: the
-bit-reversed sample index (PixelSampler::setIndex keeps it) comes with each draw; the pixel's
-scramble seeds are hashed once and kept, as there. */
-class BatchSampler {
-public:
-    explicit BatchSampler(uint64 pixel_key) : key_(pixel_key) {}
-    static uint32_t reversedIndex(uint32_t index) { return sobol_detail::reverseBits(index); }
-    Vec2f get2D(uint32_t dim, uint32_t rindex) {
-        return sobol_detail::get2D(seeds(dim >> 1), rindex);
-    }
-    float get1D(uint32_t dim, uint32_t rindex) {
-        return sobol_detail::get1D(seeds(dim >> 1), rindex, dim & 1u);
-    }
-
-private:
-    static constexpr uint32_t kPairs = 48;
-    sobol_detail::PairSeeds seeds(uint32_t pair) {
-        if (pair >= kPairs) return sobol_detail::pairSeeds(key_, pair);
-        const uint64_t bit = uint64_t(1) << pair;
-        if (!(have_ & bit)) {
-            cache_[pair] = sobol_detail::pairSeeds(key_, pair);
-            have_ |= bit;
-        }
-        return cache_[pair];
-    }
-    uint64 key_;
-    uint64_t have_ = 0;
-    sobol_detail::PairSeeds cache_[kPairs];
-};
+/** The sampler of a path batch: PixelSampler's draws with each lane's bit-reversed sample index
+(PixelSampler::get2D(dim, rindex)), the pixel's scramble seeds hashed once and kept. */
+using BatchSampler = PixelSampler;
 
 /** One path of a batch (RendererImpl::traceBatch): its state, and what one stage of a vertex
 hands the next. */

@@ -111,6 +111,17 @@ public:
     uint32_t index() const { return index_; }
     Vec2f get2D(uint32_t dim) { return sobol_detail::get2D(seeds(dim >> 1), rindex_); }
     float get1D(uint32_t dim) { return sobol_detail::get1D(seeds(dim >> 1), rindex_, dim & 1u); }
+    /** The bit-reversed sample index the draws below take (setIndex keeps it for the others). */
+    static uint32_t reversedIndex(uint32_t index) { return sobol_detail::reverseBits(index); }
+    /** Draws of the sample whose bit-reversed index is @p rindex (reversedIndex()), whatever
+    sample setIndex selected: several samples of the pixel at once (path batches). */
+    Vec2f get2D(uint32_t dim, uint32_t rindex) {
+        return sobol_detail::get2D(seeds(dim >> 1), rindex);
+    }
+    /** @overload */
+    float get1D(uint32_t dim, uint32_t rindex) {
+        return sobol_detail::get1D(seeds(dim >> 1), rindex, dim & 1u);
+    }
 
 private:
     const sobol_detail::PairSeeds& seeds(uint32_t pair) {
