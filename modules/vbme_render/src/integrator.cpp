@@ -297,6 +297,48 @@ private:
     Params p_;
 };
 
+/** The path escaped: adds what the infinite emitters send back along @p s.d to @p s.L,
+weighted against the last vertex's light sample when @p nee (trace() and traceBatch()). */
+inline void addEscaped(const RenderSceneImpl& scene, const LightSelector& lights, bool nee,
+                       PathState& s) {
+    const auto& emitters = scene.emitters();
+    for (int li : scene.infiniteEmitters()) {
+        const Emitter& e = *emitters[li];
+        const Vec3f Le = e.radianceEscaped(s.d);
+        if (isBlack(Le)) continue;
+        float w = 1.f;
+        if (nee && !s.prev_delta)
+            w = powerHeuristic(1, s.prev_pdf, 1, lights.pmf[li] * e.pdfEscaped(s.d));
+        s.L += mul(s.beta, Le) * w;
+    }
+}
+
+/** At @p hit of material @p m: Beer–Lambert absorption when the ray leaves a dielectric through
+this face, then the emission met (a light's, weighted against the last vertex's light sample
+when @p nee, and an emissive material's) added to @p s.L (trace() and traceBatch()). */
+inline void absorbAndAddEmitted(const RenderSceneImpl& scene, const LightSelector& lights,
+                                const MaterialRec& m, const SurfaceHit& hit, bool nee,
+                                PathState& s) {
+    const float cos_out = s.d.dot(hit.ng);  // > 0: the ray leaves the mesh through this face
+    if (m.transmission && cos_out > 0.f && !isBlack(m.absorption)) {
+        for (int c = 0; c < 3; ++c)
+            s.beta[c] *= std::exp(-m.absorption[c] * hit.t);
+    }
+    if (hit.kind == GeometryKind::LIGHT) {
+        const int li = scene.lightOf(hit.geom_id);
+        const Emitter& e = *scene.emitters()[li];
+        const Vec3f Le = e.radianceHit(s.d);
+        if (!isBlack(Le)) {
+            float w = 1.f;
+            if (nee && !s.prev_delta)
+                w = powerHeuristic(1, s.prev_pdf, 1,
+                                   lights.pmf[li] * e.pdfHit(s.prev_p, s.d, hit.t));
+            s.L += mul(s.beta, Le) * w;
+        }
+    }
+    if (m.emissive) s.L += mul(s.beta, m.emissionAt(hit.uv));
+}
+
 Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lights,
                           PixelSampler& sampler, PathState s, bool with_objects, bool track_objects,
                           PathInfo& info, PathState* fork, const CameraHit* camera_hit) const {
@@ -323,15 +365,7 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
             found = scene.intersect(o, d, 0.f, kInf, hit, with_objects);
         }
         if (!found) {
-            for (int li : scene.infiniteEmitters()) {
-                const Emitter& e = *emitters[li];
-                const Vec3f Le = e.radianceEscaped(d);
-                if (isBlack(Le)) continue;
-                float w = 1.f;
-                if (nee && !prev_delta)
-                    w = powerHeuristic(1, prev_pdf, 1, lights.pmf[li] * e.pdfEscaped(d));
-                L += mul(beta, Le) * w;
-            }
+            addEscaped(scene, lights, nee, s);
             break;
         }
         if (hit.kind == GeometryKind::OBJECT) {
@@ -353,24 +387,7 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
             info.albedo = diffuse;
             info.normal = hit.ns;
         }
-        const float cos_out = d.dot(hit.ng);  // > 0: the ray leaves the mesh through this face
-        if (m.transmission && cos_out > 0.f && !isBlack(m.absorption)) {
-            for (int c = 0; c < 3; ++c)
-                beta[c] *= std::exp(-m.absorption[c] * hit.t);
-        }
-        // Emission.
-        if (hit.kind == GeometryKind::LIGHT) {
-            const int li = scene.lightOf(hit.geom_id);
-            const Emitter& e = *emitters[li];
-            const Vec3f Le = e.radianceHit(d);
-            if (!isBlack(Le)) {
-                float w = 1.f;
-                if (nee && !prev_delta)
-                    w = powerHeuristic(1, prev_pdf, 1, lights.pmf[li] * e.pdfHit(prev_p, d, hit.t));
-                L += mul(beta, Le) * w;
-            }
-        }
-        if (m.emissive) L += mul(beta, m.emissionAt(hit.uv));
+        absorbAndAddEmitted(scene, lights, m, hit, nee, s);
         if (depth >= p_.max_depth) break;
 
         const float eps = RenderSceneImpl::epsilon(hit.p);
@@ -505,19 +522,9 @@ void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector&
             PathState& s = l.s;
             const int depth = s.depth;
             const Vec3f& d = s.d;
-            Vec3f& L = s.L;
-            Vec3f& beta = s.beta;
             const SurfaceHit& hit = l.hit;
             if (!l.found) {
-                for (int li : scene.infiniteEmitters()) {
-                    const Emitter& e = *emitters[li];
-                    const Vec3f Le = e.radianceEscaped(d);
-                    if (isBlack(Le)) continue;
-                    float w = 1.f;
-                    if (nee && !s.prev_delta)
-                        w = powerHeuristic(1, s.prev_pdf, 1, lights.pmf[li] * e.pdfEscaped(d));
-                    L += mul(beta, Le) * w;
-                }
+                addEscaped(scene, lights, nee, s);
                 continue;  // the path ends
             }
             if (hit.kind == GeometryKind::OBJECT) {
@@ -535,24 +542,7 @@ void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector&
                 l.info.albedo = l.diffuse;
                 l.info.normal = hit.ns;
             }
-            const float cos_out = d.dot(hit.ng);
-            if (m.transmission && cos_out > 0.f && !isBlack(m.absorption)) {
-                for (int c = 0; c < 3; ++c)
-                    beta[c] *= std::exp(-m.absorption[c] * hit.t);
-            }
-            if (hit.kind == GeometryKind::LIGHT) {
-                const int li = scene.lightOf(hit.geom_id);
-                const Emitter& e = *emitters[li];
-                const Vec3f Le = e.radianceHit(d);
-                if (!isBlack(Le)) {
-                    float w = 1.f;
-                    if (nee && !s.prev_delta)
-                        w = powerHeuristic(1, s.prev_pdf, 1,
-                                           lights.pmf[li] * e.pdfHit(s.prev_p, d, hit.t));
-                    L += mul(beta, Le) * w;
-                }
-            }
-            if (m.emissive) L += mul(beta, m.emissionAt(hit.uv));
+            absorbAndAddEmitted(scene, lights, m, hit, nee, s);
             if (depth >= p_.max_depth) continue;  // the path ends
 
             l.eps = RenderSceneImpl::epsilon(hit.p);
