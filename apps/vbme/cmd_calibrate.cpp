@@ -182,7 +182,7 @@ void setupCalibrate(CLI::App& app) {
         ->check(CLI::IsMember({"global", "ransac"}));
     app.add_flag("--edgels", o->edgels,
                  "With --auto: also find and score Manhattan frames with every edge pixel (more "
-                 "right answers on hard photographs, about twice the time; see doc/vbme_calib.md)");
+                 "right answers on hard photographs, about 1.5x the time; see doc/vbme_calib.md)");
     app.add_option("--proposals", o->proposals,
                    "With --auto: print this many ranked Manhattan frames with confidences")
         ->check(CLI::Range(1, 10));
