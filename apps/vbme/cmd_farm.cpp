@@ -130,6 +130,13 @@ void runFarmSlurm(FarmOptions& o) {
                     cv::format("i=${SLURM_ARRAY_TASK_ID:?run this as a Slurm array task}\n"
                                "A=$(( i * %d / %d ))\nB=$(( (i + 1) * %d / %d ))\n",
                                frames, tasks, frames, tasks) +
+                    // without --force the video did not exist when the scripts were written:
+                    // if it exists now, the task that finished last wrote it (atomically), and
+                    // a rerun of this task (requeue, preemption) has nothing left to do
+                    (o.common.force ? std::string()
+                                    : "if [ -e " + quote(absolute(o.out)) +
+                                          " ]; then\n  echo \"vbme farm: the video is already "
+                                          "written; nothing to do\"\n  exit 0\nfi\n") +
                     common + threads + " --frames \"$A:$B\"\n");
     const std::string assemble = (fs::path(dir) / "assemble.sbatch").string();
     writeScript(
