@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 #include "../modules/vbme_render/src/sampling.hpp"
@@ -185,6 +186,41 @@ TEST(RenderSampling, CosineHemisphereZFromTheRadius) {
         "cosine hemisphere: z %.2g from the exact map (%.2g from the disk point), |w| − 1 "
         "at most %.2g\n",
         worst_z, worst_point_z, worst_len);
+}
+
+// The SSE form of the concentric map (and of the cosine hemisphere built on it) must give the
+// scalar form's bits: the path tracer's images depend on them (RenderPathBatch's bitwise
+// oracles compare renders, this compares the map itself, including the wedges' borders
+// |ox| = |oy|, the axes where one quotient divides by zero, and the centre).
+TEST(RenderSampling, ConcentricDiskSseSameBitsAsScalar) {
+#if defined(__SSE2__)
+    auto same = [](float a, float b) { return std::memcmp(&a, &b, sizeof(float)) == 0; };
+    int checked = 0, differ = 0;
+    auto check = [&](const Vec2f& u) {
+        float r_ref, r_sse;
+        const Vec2f ref = sampling::detail::concentricDiskScalar(u, r_ref);
+        const Vec2f sse = sampling::detail::concentricDiskSse(u, r_sse);
+        const Vec3f w = sampling::squareToCosineHemisphere(u);
+        const float z_ref = std::sqrt(std::max(0.f, 1.f - r_ref * r_ref));
+        ++checked;
+        if (!same(ref[0], sse[0]) || !same(ref[1], sse[1]) || !same(r_ref, r_sse) ||
+            !same(w[0], ref[0]) || !same(w[1], ref[1]) || !same(w[2], z_ref))
+            ++differ;
+    };
+    const int n = 512;  // a dyadic grid: borders, axes and the centre exactly
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i)
+            check(Vec2f(std::min(float(i) / n, sampling::kOneMinusEpsilon),
+                        std::min(float(j) / n, sampling::kOneMinusEpsilon)));
+    RNG rng(7);
+    for (int k = 0; k < 200000; ++k) {  // the sampler's 24-bit numbers
+        const uint32_t a = rng.next(), b = rng.next();
+        check(Vec2f(float(a >> 8) * 0x1p-24f, float(b >> 8) * 0x1p-24f));
+    }
+    EXPECT_EQ(differ, 0) << "of " << checked;
+#else
+    GTEST_SKIP() << "no SSE2: the scalar form is the only one";
+#endif
 }
 
 TEST(RenderSampling, PowerHeuristic) {

@@ -1,6 +1,8 @@
 // This file is part of vbme, licensed under the Apache License 2.0 (see LICENSE).
 #include <gtest/gtest.h>
 
+#include <cstring>
+
 #include <opencv2/calib3d.hpp>
 #include <opencv2/vbme/render/camera.hpp>
 
@@ -71,4 +73,33 @@ TEST(RenderCamera, PixelCentresAndScaling) {
     EXPECT_NEAR(cam2.project(X).x, -0.5, 1e-9);
     EXPECT_NEAR(cam2.project(c.worldFromCam(Vec3d(0, 0, 1))).x, 15.5, 1e-9);
     EXPECT_THROW(PinholeCamera{Camera()}, cv::Exception);  // no image size
+}
+
+// generateRays (four rays at a time in SSE) gives generateRay's bits for every point, over a
+// whole image's pixel grid with sub-pixel offsets, any count (the remainder after the last four).
+TEST(RenderCamera, GenerateRaysSameBitsAsGenerateRay) {
+    Camera c = Camera::fromFocal(277.3, Size(320, 240));
+    c.R = Matx33d(0.96, -0.28, 0, 0.1344, 0.4608, -0.8776, 0.2457, 0.8424, 0.48);  // ≈ rotation
+    c.t = Vec3d(0.3, -1.2, 2.5);
+    const PinholeCamera cam(c);
+    RNG rng(3);
+    std::vector<Point2f> px;
+    for (int y = 0; y < 240; y += 3)
+        for (int x = 0; x < 320; x += 3)
+            px.push_back(Point2f(x + rng.uniform(-0.5f, 0.5f), y + rng.uniform(-0.5f, 0.5f)));
+    px.push_back(Point2f(159.5f, 119.5f));
+    int differ = 0, checked = 0;
+    for (int n : {(int)px.size(), 1, 3, 5, 7}) {
+        std::vector<Vec3f> dirs(n);
+        cam.generateRays(px.data(), n, dirs.data());
+        for (int i = 0; i < n; ++i) {
+            Vec3f o, d;
+            cam.generateRay(px[i], o, d);
+            ++checked;
+            if (std::memcmp(&d, &dirs[i], sizeof(Vec3f)) != 0 ||
+                std::memcmp(&o, &cam.origin(), sizeof(Vec3f)) != 0)
+                ++differ;
+        }
+    }
+    EXPECT_EQ(differ, 0) << "of " << checked;
 }

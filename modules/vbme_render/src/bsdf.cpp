@@ -31,8 +31,7 @@ class Lambertian final : public Bsdf {
 public:
     explicit Lambertian(const Vec3f& albedo) : albedo_(albedo) {}
     Vec3f eval(const Vec3f& wo, const Vec3f& wi, const Vec3f& diffuse) const override {
-        if (!sameHemisphere(wo, wi)) return Vec3f(0, 0, 0);
-        return diffuse * kInvPi;
+        return lambertianEval(wo, wi, diffuse);
     }
     float pdf(const Vec3f& wo, const Vec3f& wi, const Vec3f&) const override {
         if (!sameHemisphere(wo, wi)) return 0.f;
@@ -40,17 +39,7 @@ public:
     }
     bool sample(const Vec3f& wo, const Vec2f& u, float, const Vec3f& diffuse,
                 BsdfSample& s) const override {
-        if (wo[2] == 0.f) return false;
-        Vec3f wi = sampling::squareToCosineHemisphere(u);
-        if (wi[2] <= 0.f) return false;
-        if (wo[2] < 0.f) wi[2] = -wi[2];
-        s.wi = wi;
-        s.pdf = std::abs(wi[2]) * kInvPi;
-        s.f = diffuse * kInvPi;
-        s.weight = diffuse;
-        s.delta = false;
-        s.transmission = false;
-        return true;
+        return lambertianSample(wo, u, diffuse, s);
     }
     Vec3f defaultDiffuse() const override { return albedo_; }
     bool singleLobe() const override { return true; }
@@ -148,6 +137,9 @@ private:
 
 Ptr<Bsdf> createLambertian(const Vec3f& albedo) {
     return makePtr<Lambertian>(albedo);
+}
+bool isLambertian(const Bsdf& b) {
+    return dynamic_cast<const Lambertian*>(&b) != nullptr;
 }
 Ptr<Bsdf> createPhong(const Vec3f& kd, const Vec3f& ks, float exponent) {
     return makePtr<Phong>(kd, ks, exponent);

@@ -13,6 +13,7 @@
 #include <algorithm>
 
 #include "opencv2/vbme/render/bsdf.hpp"
+#include "sampling.hpp"
 
 namespace cv {
 namespace vbme {
@@ -28,6 +29,38 @@ inline Vec3f clampDiffuse(const Vec3f& d, const Vec3f& ks) {
 
 /** @brief Lambertian: f = albedo/π. */
 Ptr<Bsdf> createLambertian(const Vec3f& albedo);
+
+/** @brief The Lambertian model's sample() (which calls it), inline: a renderer that knows the
+material is Lambertian (isLambertian()) calls it without the virtual call, so that the compiler
+keeps the sample in registers and schedules its chain with the caller's. */
+inline bool lambertianSample(const Vec3f& wo, const Vec2f& u, const Vec3f& diffuse, BsdfSample& s);
+/** @brief The rest of lambertianSample() once its cosine-hemisphere direction @p wi
+(sampling::squareToCosineHemisphere of the sample's numbers) is drawn: the path batch's vector
+stage draws it for several lanes at once. */
+inline bool lambertianFromDirection(const Vec3f& wo, Vec3f wi, const Vec3f& diffuse,
+                                    BsdfSample& s) {
+    if (wo[2] == 0.f || wi[2] <= 0.f) return false;
+    if (wo[2] < 0.f) wi[2] = -wi[2];
+    s.wi = wi;
+    s.pdf = std::abs(wi[2]) * sampling::kInvPi;
+    s.f = diffuse * sampling::kInvPi;
+    s.weight = diffuse;
+    s.delta = false;
+    s.transmission = false;
+    return true;
+}
+inline bool lambertianSample(const Vec3f& wo, const Vec2f& u, const Vec3f& diffuse, BsdfSample& s) {
+    if (wo[2] == 0.f) return false;
+    return lambertianFromDirection(wo, sampling::squareToCosineHemisphere(u), diffuse, s);
+}
+/** @brief The Lambertian model's eval() (which calls it), inline. */
+inline Vec3f lambertianEval(const Vec3f& wo, const Vec3f& wi, const Vec3f& diffuse) {
+    if (!(wo[2] * wi[2] > 0.f)) return Vec3f(0, 0, 0);
+    return diffuse * sampling::kInvPi;
+}
+/** @brief True when @p b was made by createLambertian (its sample() and eval() are
+lambertianSample() and lambertianEval()). */
+bool isLambertian(const Bsdf& b);
 /** @brief Normalised Phong: f = kd/π + ks·(n+2)/(2π)·max(0, cos α)^n, α between wi and the
 mirror direction of wo. kd + ks is scaled down per channel to ≤ 1. */
 Ptr<Bsdf> createPhong(const Vec3f& kd, const Vec3f& ks, float exponent);

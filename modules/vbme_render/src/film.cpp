@@ -59,9 +59,8 @@ const TruncatedGaussian& gaussian() {
 
 }  // namespace
 
-Vec2f filterOffset(FilterType filter, const Vec2f& u) {
-    if (filter == FILTER_GAUSSIAN) return Vec2f(gaussian().sample(u[0]), gaussian().sample(u[1]));
-    return Vec2f(u[0] - 0.5f, u[1] - 0.5f);
+Vec2f filterOffsetGaussian(const Vec2f& u) {
+    return Vec2f(gaussian().sample(u[0]), gaussian().sample(u[1]));
 }
 
 FilterType parseFilter(const std::string& name) {

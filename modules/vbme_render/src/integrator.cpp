@@ -13,6 +13,8 @@
 #include <cmath>
 #include <limits>
 
+#include "batch_simd.hpp"
+#include "bsdf_models.hpp"
 #include "opencv2/vbme/core/utility.hpp"
 #include "opencv2/vbme/render/camera.hpp"
 #include "opencv2/vbme/render/sampler.hpp"
@@ -227,11 +229,13 @@ struct Lane {
     bool found = false;
     // shading → continuation
     const Bsdf* bsdf = nullptr;
+    bool lambertian = false;  // MaterialRec::lambertian: the vector stage samples it
     sampling::Frame frame;
     Vec3f wo, diffuse;
     float eps = 0.f, cone_width = 0.f;
     BsdfSample bs;
     bool sampled = false, last = false;
+    float u_lobe = 0.f;  // the lobe's number (vector stage: the BSDF sampled after the light)
     // next-event estimation: the shadow ray and what its contribution needs
     bool shadow = false, blocked = false;
     int li = 0;
@@ -242,6 +246,7 @@ struct Lane {
 
 /** The most paths RendererImpl::traceBatch advances together. */
 constexpr int kMaxBatch = 64;
+static_assert(kMaxBatch % batch_simd::kWidth == 0, "whole groups of vector lanes");
 
 class RendererImpl : public Renderer {
 public:
@@ -417,7 +422,8 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
         bool sampled = false;
         if (!last) {
             const Vec2f ud = sampler.get2D(PathDims::dim(depth, PathDims::kBsdfDir));
-            sampled = bsdf.sample(wo, ud, u_sel_lobe[1], diffuse, bs);
+            sampled = m.lambertian ? bsdf_detail::lambertianSample(wo, ud, diffuse, bs)
+                                   : bsdf.sample(wo, ud, u_sel_lobe[1], diffuse, bs);
         }
         if (nee_here) {
             const float ul = u_sel_lobe[0];
@@ -428,7 +434,8 @@ Vec3f RendererImpl::trace(const RenderSceneImpl& scene, const LightSelector& lig
             EmitterSample es;
             if (emitters[li]->sample(hit.p, u, es) && es.pdf > 0.f && !isBlack(es.L)) {
                 const Vec3f wi = frame.toLocal(es.wi);
-                const Vec3f f = bsdf.eval(wo, wi, diffuse);
+                const Vec3f f = m.lambertian ? bsdf_detail::lambertianEval(wo, wi, diffuse)
+                                             : bsdf.eval(wo, wi, diffuse);
                 if (!isBlack(f)) {
                     const float side = es.wi.dot(hit.ng) > 0.f ? 1.f : -1.f;
                     const Vec3f so = hit.p + hit.ng * (side * eps);
@@ -496,6 +503,8 @@ void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector&
     const auto& emitters = scene.emitters();
     const int n_lights = (int)emitters.size();
     const bool hittable_emission = scene.hasHittableEmission();
+    // The vector stage where the processor has it (and Params::batch_simd asks for it).
+    const bool simd = p_.batch_simd && batch_simd::available();
     int live[kMaxBatch], shaded[kMaxBatch];
     int n_live = n;
     for (int k = 0; k < n; ++k)
@@ -549,6 +558,7 @@ void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector&
             l.frame = sampling::Frame(hit.ns);
             l.wo = l.frame.toLocal(-d);
             l.bsdf = m.bsdf.get();
+            l.lambertian = m.lambertian;
             const bool nee_here = nee && n_lights > 0 && !m.is_delta;
             const Vec2f u_sel_lobe =
                 (nee_here && n_lights > 1) || !m.single_lobe
@@ -556,9 +566,12 @@ void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector&
                     : Vec2f(0.f, 0.f);
             l.last = depth + 1 >= p_.max_depth && !track_objects && nee && !hittable_emission;
             l.sampled = false;
-            if (!l.last) {
+            l.u_lobe = u_sel_lobe[1];
+            if (!l.last && !simd) {
                 const Vec2f ud = sampler.get2D(PathDims::dim(depth, PathDims::kBsdfDir), l.rindex);
-                l.sampled = l.bsdf->sample(l.wo, ud, u_sel_lobe[1], l.diffuse, l.bs);
+                l.sampled = m.lambertian  // inline, no virtual call (same bits)
+                                ? bsdf_detail::lambertianSample(l.wo, ud, l.diffuse, l.bs)
+                                : l.bsdf->sample(l.wo, ud, u_sel_lobe[1], l.diffuse, l.bs);
             }
             l.shadow = false;
             if (nee_here) {
@@ -571,7 +584,8 @@ void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector&
                 EmitterSample& es = l.es;
                 if (emitters[li]->sample(hit.p, u, es) && es.pdf > 0.f && !isBlack(es.L)) {
                     l.wi_local = l.frame.toLocal(load3(es.wi));
-                    l.f = l.bsdf->eval(l.wo, l.wi_local, l.diffuse);
+                    l.f = m.lambertian ? bsdf_detail::lambertianEval(l.wo, l.wi_local, l.diffuse)
+                                       : l.bsdf->eval(l.wo, l.wi_local, l.diffuse);
                     if (!isBlack(l.f)) {
                         const float side = es.wi.dot(hit.ng) > 0.f ? 1.f : -1.f;
                         l.so = hit.p + hit.ng * (side * l.eps);
@@ -583,6 +597,42 @@ void RendererImpl::traceBatch(const RenderSceneImpl& scene, const LightSelector&
                 }
             }
             shaded[n_shaded++] = live[j];
+        }
+        // 2b. Vector stage (AVX2): the BSDF samples of the shaded paths, after their light
+        // samples (each path's two samples are independent: the same numbers, the same bits).
+        // The Sobol draws of all lanes at once; the Lambertian lanes' cosine-hemisphere
+        // directions too; other BSDFs sample one lane at a time from the drawn numbers.
+        if (simd && n_shaded > 0) {
+            alignas(32) uint32_t rix[kMaxBatch];
+            alignas(32) float ux[kMaxBatch], uy[kMaxBatch], wx[kMaxBatch], wy[kMaxBatch],
+                wz[kMaxBatch];
+            int need[kMaxBatch], n_need = 0;
+            for (int j = 0; j < n_shaded; ++j) {
+                const Lane& l = lanes[shaded[j]];
+                if (l.last) continue;
+                rix[n_need] = l.rindex;
+                need[n_need++] = shaded[j];
+            }
+            if (n_need > 0) {
+                const int n_pad = (n_need + batch_simd::kWidth - 1) & ~(batch_simd::kWidth - 1);
+                for (int k = n_need; k < n_pad; ++k)
+                    rix[k] = 0;
+                const int depth = lanes[need[0]].s.depth;  // all live paths are at one depth
+                const uint32_t dim = PathDims::dim(depth, PathDims::kBsdfDir);
+                batch_simd::draw2D(sobol_detail::pairSeeds(sampler.key(), dim >> 1), rix, n_pad, ux,
+                                   uy);
+                batch_simd::cosineHemisphere(ux, uy, n_pad, wx, wy, wz);
+                for (int k = 0; k < n_need; ++k) {
+                    Lane& l = lanes[need[k]];
+                    if (l.lambertian) {  // with the direction computed above
+                        l.sampled = bsdf_detail::lambertianFromDirection(
+                            l.wo, Vec3f(wx[k], wy[k], wz[k]), l.diffuse, l.bs);
+                    } else {
+                        l.sampled =
+                            l.bsdf->sample(l.wo, Vec2f(ux[k], uy[k]), l.u_lobe, l.diffuse, l.bs);
+                    }
+                }
+            }
         }
         // 3. The shadow rays, in packets (rtcOccluded16 / 8): at the first vertex a pixel's
         // shadow rays start from nearly one point and go to the same light (coherent), deeper
@@ -767,10 +817,22 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
     // Paths of a pixel in batches (traceBatch), except for differential renders (forks).
     const bool batched = p_.path_batch > 1 && !differential;
     const uint32_t batch = (uint32_t)std::min(p_.path_batch, kMaxBatch);
+    const bool simd_film = batched && p_.batch_simd && batch_simd::available();
     auto renderTile = [&](int tile) {
         const int x0 = (tile % tiles_x) * ts, y0 = (tile / tiles_x) * ts;
         std::vector<Lane> lanes(batched ? batch : 0);
         std::vector<CameraHit> batch_hits(batched ? batch : 0);
+        // a batch's film points and camera ray directions (once per tile: arrays of Vec3f and
+        // Point2f are zeroed by their constructors)
+        std::vector<Point2f> batch_film(batched ? batch : 0);
+        std::vector<Vec3f> batch_dirs(batched ? batch : 0);
+        // Camera rays in packets of up to 8 samples of a pixel (they start at one point and fan
+        // out over the pixel: coherent), traced ahead of their paths (constructed once per
+        // tile, not zeroed again for every pixel).
+        constexpr uint32_t kPacket = 8;
+        Vec3f cam_o[kPacket], cam_d[kPacket];
+        SurfaceHit cam_hit[kPacket];
+        bool cam_found[kPacket];
         const int x1 = std::min(x0 + ts, sz.width), y1 = std::min(y0 + ts, sz.height);
         int64 tile_rays = 0, tile_paths = 0, tile_untouched = 0;
         for (int y = y0; y < y1; ++y) {
@@ -784,13 +846,7 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                 double ys[3] = {0, 0, 0}, yq[3] = {0, 0, 0}, lev[3] = {0, 0, 0};
                 double dp[3] = {0, 0, 0}, dl[3] = {0, 0, 0};  // Σ(L − Ln): minimum, later
                 uint32_t taken = 0;
-                // Camera rays in packets of up to 8 samples of this pixel (they start at one
-                // point and fan out over the pixel: coherent), traced ahead of their paths.
-                constexpr uint32_t kPacket = 8;
-                Vec3f cam_o[kPacket], cam_d[kPacket];
-                SurfaceHit cam_hit[kPacket];
-                bool cam_found[kPacket];
-                uint32_t packet_begin = 0, packet_end = 0;
+                uint32_t packet_begin = 0, packet_end = 0;  // of cam_o … cam_found
                 // One sample's radiance (and, differential, without the objects) into the sums.
                 auto accumulate = [&](Vec3f L, Vec3f Ln, const PathInfo& info) {
                     if (p_.clamp > 0.f) {
@@ -825,16 +881,38 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                         BatchSampler bsamp(px);
                         while (taken < upto) {
                             const int nb = (int)std::min<uint32_t>(upto - taken, batch);
+                            // the film's numbers of all lanes at once (vector code)
+                            alignas(32) uint32_t rix[kMaxBatch];
+                            alignas(32) float fx[kMaxBatch], fy[kMaxBatch];
+                            if (simd_film) {
+                                const int n_pad =
+                                    (nb + batch_simd::kWidth - 1) & ~(batch_simd::kWidth - 1);
+                                for (int k = 0; k < n_pad; ++k)
+                                    rix[k] = BatchSampler::reversedIndex(taken + k);
+                                batch_simd::draw2D(
+                                    sobol_detail::pairSeeds(px, PathDims::kFilm >> 1), rix, n_pad,
+                                    fx, fy);
+                            }
+                            // the film points first, then their rays four at a time
+                            Point2f* film = batch_film.data();
+                            Vec3f* dirs = batch_dirs.data();
                             for (int k = 0; k < nb; ++k) {
                                 Lane& l = lanes[k];
                                 l.rindex = BatchSampler::reversedIndex(taken + k);
-                                const Vec2f off =
-                                    filterOffset(p_.filter, bsamp.get2D(PathDims::kFilm, l.rindex));
+                                const Vec2f off = filterOffset(
+                                    p_.filter, simd_film ? Vec2f(fx[k], fy[k])
+                                                         : bsamp.get2D(PathDims::kFilm, l.rindex));
+                                film[k] = Point2f(x + off[0], y + off[1]);
+                            }
+                            cam.generateRays(film, nb, dirs);
+                            for (int k = 0; k < nb; ++k) {
+                                Lane& l = lanes[k];
                                 // PathState::start(o, d, pixel_spread), field by field in
                                 // place (a temporary copied over would be read back with wider
                                 // loads than its stores: no store forwarding).
                                 PathState& st = l.s;
-                                cam.generateRay(Point2f(x + off[0], y + off[1]), st.o, st.d);
+                                st.o = cam.origin();
+                                st.d = dirs[k];
                                 st.prev_p = st.o;
                                 st.L = Vec3f(0, 0, 0);
                                 st.beta = Vec3f(1, 1, 1);
@@ -878,13 +956,15 @@ RenderStats RendererImpl::renderImpl(const RenderScene& scene_in, const Camera& 
                         if (p_.camera_packets && taken >= packet_end) {
                             packet_begin = taken;
                             packet_end = std::min(upto, taken + kPacket);
+                            Point2f film[kPacket];
                             for (uint32_t k = packet_begin; k < packet_end; ++k) {
                                 ps.setIndex(k);
                                 const Vec2f off =
                                     filterOffset(p_.filter, ps.get2D(PathDims::kFilm));
-                                cam.generateRay(Point2f(x + off[0], y + off[1]),
-                                                cam_o[k - packet_begin], cam_d[k - packet_begin]);
+                                film[k - packet_begin] = Point2f(x + off[0], y + off[1]);
+                                cam_o[k - packet_begin] = cam.origin();
                             }
+                            cam.generateRays(film, int(packet_end - packet_begin), cam_d);
                             scene.intersect8(cam_o, cam_d, int(packet_end - packet_begin), cam_hit,
                                              cam_found, with_objects);
                         }

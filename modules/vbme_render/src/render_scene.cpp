@@ -16,6 +16,7 @@
 #include <limits>
 #include <map>
 
+#include "bsdf_models.hpp"
 #include "opencv2/vbme/core/fileio.hpp"
 #include "opencv2/vbme/core/params.hpp"
 
@@ -74,6 +75,7 @@ MaterialRec makeMaterial(const Material& m) {
 int RenderSceneImpl::addMaterial(MaterialRec m) {
     m.is_delta = m.bsdf->isDelta();
     m.single_lobe = m.bsdf->singleLobe();
+    m.lambertian = bsdf_detail::isLambertian(*m.bsdf);
     m.transmission = m.bsdf->hasTransmission();
     m.absorption = m.bsdf->absorption();
     materials_.push_back(std::move(m));
@@ -431,18 +433,24 @@ inline void setRay(RTCRay& r, const Vec3f& o, const Vec3f& d, float tnear, float
 #endif
 }
 
+/** One ray's closest hit in @p scene (rtcIntersect1); true when it hit something. */
+inline bool intersect1(RTCScene scene, const Vec3f& o, const Vec3f& d, float tnear, float tfar,
+                       RTCRayHit& rh) {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    setRay(rh.ray, o, d, tnear, tfar);
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene, &ctx, &rh);
+    return rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+}
+
 }  // namespace
 
 bool RenderSceneImpl::intersect(const Vec3f& o, const Vec3f& d, float tnear, float tfar,
                                 SurfaceHit& hit, bool with_objects) const {
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
     RTCRayHit rh;
-    setRay(rh.ray, o, d, tnear, tfar);
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(sceneFor(with_objects), &ctx, &rh);
-    const bool found = rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+    const bool found = intersect1(sceneFor(with_objects), o, d, tnear, tfar, rh);
     if (found) fillHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar, hit);
     if (maybeLeak(found, tfar, d, hit))
         return intersectRobust(o, d, tnear, tfar, hit, with_objects);
@@ -453,14 +461,8 @@ bool RenderSceneImpl::intersectRobust(const Vec3f& o, const Vec3f& d, float tnea
                                       SurfaceHit& hit, bool with_objects) const {
     const int k = with_objects ? 1 : 0;
     std::call_once(robust_once_[k], [&] { robust_[k] = buildScene(with_objects, true); });
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
     RTCRayHit rh;
-    setRay(rh.ray, o, d, tnear, tfar);
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(robust_[k], &ctx, &rh);
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+    if (!intersect1(robust_[k], o, d, tnear, tfar, rh)) return false;
     fillHit(rh.hit.geomID, rh.hit.primID, rh.hit.u, rh.hit.v, rh.ray.tfar, hit);
     return true;
 }

@@ -28,6 +28,7 @@ struct MaterialRec {
     bool emissive = false;
     bool is_delta = false;
     bool single_lobe = false;  // the BSDF's sample() ignores u_lobe
+    bool lambertian = false;   // bsdf_detail::isLambertian: inline sample and eval
     bool transmission = false;
     Vec3f absorption;
 

@@ -74,8 +74,9 @@ inline void sinCosQuarter(float x, float& s, float& c) {
 
 namespace detail {
 /** @brief squareToConcentricDisk, also giving the point's radius @p radius (|r| below, exactly:
-the radius of the concentric map is a coordinate of the square, no square root needed). */
-inline Vec2f concentricDisk(const Vec2f& u, float& radius) {
+the radius of the concentric map is a coordinate of the square, no square root needed).
+Portable scalar form: the reference the SSE form below must equal bit for bit. */
+inline Vec2f concentricDiskScalar(const Vec2f& u, float& radius) {
     const float ox = 2.f * u[0] - 1.f, oy = 2.f * u[1] - 1.f;
     if (ox == 0.f && oy == 0.f) {
         radius = 0.f;
@@ -85,14 +86,6 @@ inline Vec2f concentricDisk(const Vec2f& u, float& radius) {
     // φ = (π/4)(ox/oy), i.e. (cos θ, sin θ) = (sin φ, cos φ). The wedge is a coin flip per
     // sample: chosen by bit masks, not a branch that mispredicts half the time; |φ| ≤ π/4
     // needs no range reduction.
-#if defined(__SSE2__)
-    // the mask and the choices in SSE registers (no round trip through integer registers)
-    const __m128 m = _mm_cmpgt_ss(_mm_set_ss(std::abs(ox)), _mm_set_ss(std::abs(oy)));
-    auto pick = [m](float a, float b) {  // m ? a : b
-        return _mm_cvtss_f32(
-            _mm_or_ps(_mm_and_ps(m, _mm_set_ss(a)), _mm_andnot_ps(m, _mm_set_ss(b))));
-    };
-#else
     const uint32_t m = std::abs(ox) > std::abs(oy) ? 0xffffffffu : 0u;
     auto pick = [m](float a, float b) {  // m ? a : b
         uint32_t ia, ib;
@@ -103,12 +96,84 @@ inline Vec2f concentricDisk(const Vec2f& u, float& radius) {
         std::memcpy(&f, &r, 4);
         return f;
     };
-#endif
     const float r = pick(ox, oy);
     radius = std::abs(r);
     float sn, cs;
     sinCosQuarter((kPi / 4.f) * (pick(oy, ox) / r), sn, cs);
     return Vec2f(r * pick(cs, sn), r * pick(sn, cs));
+}
+
+#if defined(__SSE2__)
+/** @brief concentricDiskScalar with both coordinates in one SSE register from the load to the
+result: the same IEEE operations in the same order on each value (the same bits), without the
+round trips through integer registers that scalar selects cost (each `_mm_set_ss` of a float
+went out to a general register and back), with both wedges' quotients oy/ox and ox/oy in one
+division that starts before the wedge is known, and sin φ and cos φ evaluated side by side.
+Returns (x, y, ·, ·) and the radius in lane 0 of @p radius. */
+inline __m128 concentricDiskPacked(const Vec2f& u, __m128& radius) {
+    const __m128 uv = _mm_loadl_pi(_mm_setzero_ps(), reinterpret_cast<const __m64*>(u.val));
+    // 2u − 1 as u + u − 1: u + u is exactly 2u (GCC emits the same addition for 2.f * u).
+    const __m128 o = _mm_sub_ps(_mm_add_ps(uv, uv), _mm_set1_ps(1.f));  // (ox, oy, −1, −1)
+    if ((_mm_movemask_ps(_mm_cmpeq_ps(o, _mm_setzero_ps())) & 3) == 3) {
+        radius = _mm_setzero_ps();
+        return _mm_setzero_ps();
+    }
+    const __m128 o_sw = _mm_shuffle_ps(o, o, _MM_SHUFFLE(3, 2, 0, 1));  // (oy, ox)
+    // Both candidates of the wedge's quotient at once (one of them may divide by zero; it is
+    // then not chosen).
+    const __m128 q = _mm_div_ps(o_sw, o);  // (oy/ox, ox/oy)
+    const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+    const __m128 a = _mm_and_ps(o, abs_mask);                           // (|ox|, |oy|)
+    const __m128 a_sw = _mm_shuffle_ps(a, a, _MM_SHUFFLE(3, 2, 0, 1));  // (|oy|, |ox|)
+    const __m128 gt = _mm_cmpgt_ps(a, a_sw);                            // lane 0: |ox| > |oy|
+    const __m128 m = _mm_shuffle_ps(gt, gt, 0);                         // that mask in every lane
+    auto select = [&m](__m128 x, __m128 y) {                            // m ? x : y
+        return _mm_or_ps(_mm_and_ps(m, x), _mm_andnot_ps(m, y));
+    };
+    const __m128 rn = select(o, o_sw);  // lane 0: r = m ? ox : oy
+    radius = _mm_and_ps(rn, abs_mask);
+    const __m128 qs =
+        select(q, _mm_shuffle_ps(q, q, _MM_SHUFFLE(3, 2, 0, 1)));  // m ? oy/ox : ox/oy
+    const __m128 x = _mm_mul_ss(_mm_set_ss(kPi / 4.f), qs);        // φ in lane 0
+    const __m128 z = _mm_mul_ss(x, x);
+    const __m128 zz = _mm_shuffle_ps(z, z, 0);
+    // sinCosQuarter's two Horner schemes side by side, lane 0 cos φ, lane 1 sin φ:
+    //   c = 1 + z·(−0.5 + z·(c2 + z·(c3 + z·c4)))
+    //   s = x + (x·z)·(s1 + z·(s2 + z·s3)), where lane 1 starts one step late with z·0 + s3
+    //   (exactly s3, z ≥ 0) so both lanes take the same steps.
+    __m128 t = _mm_mul_ps(zz, _mm_setr_ps(2.443315711809948e-5f, 0.f, 0.f, 0.f));
+    t = _mm_add_ps(_mm_setr_ps(-1.388731625493765e-3f, -1.9515295891e-4f, 0.f, 0.f), t);
+    t = _mm_mul_ps(zz, t);
+    t = _mm_add_ps(_mm_setr_ps(4.166664568298827e-2f, 8.3321608736e-3f, 0.f, 0.f), t);
+    t = _mm_mul_ps(zz, t);
+    t = _mm_add_ps(_mm_setr_ps(-0.5f, -1.6666654611e-1f, 0.f, 0.f), t);
+    const __m128 xx = _mm_shuffle_ps(x, x, 0);
+    const __m128 xz = _mm_mul_ss(xx, z);                               // lane 0 x·z (lane 1 x)
+    const __m128 mz = _mm_unpacklo_ps(zz, _mm_shuffle_ps(xz, xz, 0));  // (z, x·z, z, x·z)
+    t = _mm_mul_ps(mz, t);
+    const __m128 cs = _mm_add_ps(_mm_unpacklo_ps(_mm_set1_ps(1.f), xx), t);  // (cos φ, sin φ)
+    const __m128 cs_sw = _mm_shuffle_ps(cs, cs, _MM_SHUFFLE(3, 2, 0, 1));    // (sin φ, cos φ)
+    const __m128 rr = _mm_shuffle_ps(rn, rn, 0);
+    return _mm_mul_ps(rr, select(cs, cs_sw));  // r·(m ? (c, s) : (s, c))
+}
+/** @brief concentricDiskPacked as a point and a radius. */
+inline Vec2f concentricDiskSse(const Vec2f& u, float& radius) {
+    __m128 rad;
+    const __m128 p = concentricDiskPacked(u, rad);
+    radius = _mm_cvtss_f32(rad);
+    Vec2f out;
+    _mm_storel_pi(reinterpret_cast<__m64*>(out.val), p);
+    return out;
+}
+#endif
+
+/** @brief squareToConcentricDisk with the point's radius (the SSE form where there is SSE2). */
+inline Vec2f concentricDisk(const Vec2f& u, float& radius) {
+#if defined(__SSE2__)
+    return concentricDiskSse(u, radius);
+#else
+    return concentricDiskScalar(u, radius);
+#endif
 }
 }  // namespace detail
 
@@ -124,12 +189,22 @@ inline float squareToConcentricDiskPdf(const Vec2f& p) {
 
 /** @brief Cosine-weighted hemisphere around +z (Malley's method). */
 inline Vec3f squareToCosineHemisphere(const Vec2f& u) {
-    float r;
-    const Vec2f d = detail::concentricDisk(u, r);
     // z = √(1 − r²) from the disk's radius, not from the point: the square root no longer waits
     // for the division and polynomials that place the point on its circle.
+#if defined(__SSE2__)
+    __m128 r;
+    const __m128 d = detail::concentricDiskPacked(u, r);
+    // max(0, v) as std::max(0.f, v) = (0 < v ? v : 0): _mm_max_ss(v, 0) = (v > 0 ? v : 0)
+    const __m128 z =
+        _mm_sqrt_ss(_mm_max_ss(_mm_sub_ss(_mm_set_ss(1.f), _mm_mul_ss(r, r)), _mm_setzero_ps()));
+    return Vec3f(_mm_cvtss_f32(d), _mm_cvtss_f32(_mm_shuffle_ps(d, d, _MM_SHUFFLE(1, 1, 1, 1))),
+                 _mm_cvtss_f32(z));
+#else
+    float r;
+    const Vec2f d = detail::concentricDisk(u, r);
     const float z = std::sqrt(std::max(0.f, 1.f - r * r));
     return Vec3f(d[0], d[1], z);
+#endif
 }
 /** @brief Solid-angle pdf of squareToCosineHemisphere: cos θ / π (0 below the horizon). */
 inline float squareToCosineHemispherePdf(const Vec3f& w) {

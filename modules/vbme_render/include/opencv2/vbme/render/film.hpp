@@ -40,8 +40,16 @@ enum FilterType {
     FILTER_GAUSSIAN  //!< separable Gaussian, σ = 0.5 pixel, each axis truncated at ±2 pixels
 };
 
-/** @brief Offset of a film sample from its pixel centre for uniform numbers @p u. */
-CV_EXPORTS Vec2f filterOffset(FilterType filter, const Vec2f& u);
+/** @brief Offset of a FILTER_GAUSSIAN film sample from its pixel centre for uniform numbers
+@p u (filterOffset()'s Gaussian case). */
+CV_EXPORTS Vec2f filterOffsetGaussian(const Vec2f& u);
+
+/** @brief Offset of a film sample from its pixel centre for uniform numbers @p u. Inline: the
+box filter's offset is two subtractions, taken once per camera ray. */
+inline Vec2f filterOffset(FilterType filter, const Vec2f& u) {
+    if (filter == FILTER_GAUSSIAN) return filterOffsetGaussian(u);
+    return Vec2f(u[0] - 0.5f, u[1] - 0.5f);
+}
 
 /** @brief Parses "box" or "gaussian". */
 CV_EXPORTS FilterType parseFilter(const std::string& name);

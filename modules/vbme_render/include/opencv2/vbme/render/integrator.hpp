@@ -132,6 +132,12 @@ public:
         Embree in packets, except when they must tell which object blocks them (AOVs of a
         scene with objects: closest-hit rays one at a time, as without batches). */
         int path_batch = 16;
+        /** @brief In path batches (path_batch > 1), draw the lanes' random numbers and the
+        Lambertian lanes' cosine-weighted directions with vector code, eight lanes at a time,
+        where the processor has AVX2 (checked at run time; elsewhere, or when false, one lane at
+        a time). The same operations in the same order: the image is the same bit for bit
+        (tested), so this speed switch is not part of read()/write(). */
+        bool batch_simd = true;
 
         /** @brief spp, max_depth and seed from a scene's render settings. */
         static Params fromScene(const RenderSettings& s);
