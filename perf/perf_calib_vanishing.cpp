@@ -50,12 +50,13 @@ void BM_AutoCalibrate(benchmark::State& state) {
 }
 BENCHMARK(BM_AutoCalibrate)->Arg(640)->Arg(1280)->Unit(benchmark::kMillisecond);
 
-// The same with the edge-pixel likelihood (Params::edgel_scoring): its cost over BM_AutoCalibrate.
-void BM_AutoCalibrateEdgels(benchmark::State& state) {
+// The same without the edge-pixel likelihood (Params::edgel_scoring off, the segments alone: the
+// default before session 10): BM_AutoCalibrate's cost over it is the edge pixels'.
+void BM_AutoCalibrateSegmentsOnly(benchmark::State& state) {
     const Size size((int)state.range(0), (int)state.range(0) * 3 / 4);
     const Mat img = benchImage(size);
     VanishingPointCalibrator::Params p;
-    p.edgel_scoring = true;
+    p.edgel_scoring = false;
     auto cal = VanishingPointCalibrator::create(p);
     for (auto _ : state) {
         FrameCalibration fc = cal->detect(img);
@@ -65,7 +66,7 @@ void BM_AutoCalibrateEdgels(benchmark::State& state) {
     state.SetLabel(format("focal %.1f px, error %.2f %%", f,
                           100 * std::abs(f / benchCamera(size).K(0, 0) - 1)));
 }
-BENCHMARK(BM_AutoCalibrateEdgels)->Arg(640)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_AutoCalibrateSegmentsOnly)->Arg(640)->Unit(benchmark::kMillisecond);
 
 // The previous RANSAC search (Params::RANSAC) on the same image: the peer of BM_AutoCalibrate.
 void BM_AutoCalibrateRansac(benchmark::State& state) {
@@ -97,10 +98,11 @@ void BM_ProposalsWithDistortion(benchmark::State& state) {
 BENCHMARK(BM_ProposalsWithDistortion)->Unit(benchmark::kMillisecond);
 
 // The 26 undistorted Blender renders of test/data/calib_rooms (640×480), one image per
-// iteration in turn: what `--auto` costs on realistic images. Arg 0: the FastLineDetector pass
-// off (LSD segments only); 1: the default (FLD pass when the LSD pass's first proposal's
-// confidence is below Params::fld_pass_below_confidence); 2: the FLD pass on every image;
-// 3: the default with the edge pixels (Params::edgel_scoring).
+// iteration in turn: what `--auto` costs on realistic images. Args 0–2 without the edge pixels
+// (Params::edgel_scoring off): 0 the FastLineDetector pass off (LSD segments only); 1 the FLD
+// pass when the LSD pass's first proposal's confidence is below
+// Params::fld_pass_below_confidence (the default before session 10); 2 the FLD pass on every
+// image. 3: the default (1 with the edge pixels, Params::edgel_scoring).
 void BM_AutoCalibrateRenderedRooms(benchmark::State& state) {
     static const std::vector<Mat> imgs = [] {
         std::vector<Mat> v;

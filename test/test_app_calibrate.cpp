@@ -241,12 +241,7 @@ TEST(AppCalibrate, AutoProposalsAndDistortionOnARender) {
     std::string line;
     double k1 = 0;
     while (std::getline(in, line))
-        if (line.rfind("room_009.jpg,", 0) == 0) {
-            std::stringstream ss(line);
-            std::string x;
-            for (int i = 0; i < 8 && std::getline(ss, x, ','); ++i)
-                if (i == 7) k1 = std::stod(x);
-        }
+        if (line.rfind("room_009.jpg,", 0) == 0) k1 = std::stod(vbme_test::csvFields(line).at(7));
     ASSERT_LT(k1, 0) << "room_009.jpg is a distorted render";
     vbme_test::ScratchDir d;
     const std::string out = d / "scene.yml";
@@ -263,11 +258,11 @@ TEST(AppCalibrate, AutoProposalsAndDistortionOnARender) {
     EXPECT_NEAR(cv::vbme::Scene::read(out).camera.k1, est, 5e-5);
 }
 
-// --edgels (Params::edgel_scoring): on room_016, a bare wall corner whose third direction is
-// seen only in soft wall-ceiling shading, the segments alone rank a wrong frame first (f 151 %
-// off); with the edge pixels the first proposal is the true frame (827.9 px for 822.6). Both
-// are refused as not confident (the right one is flagged ambiguous with the wrong one), so the
-// proposals are what the user sees.
+// The edge pixels (Params::edgel_scoring, the default; --no-edgels turns them off): on
+// room_016, a bare wall corner whose third direction is seen only in soft wall-ceiling
+// shading, the segments alone rank a wrong frame first (f 151 % off); with the edge pixels the
+// first proposal is the true frame (827.9 px for 822.6). Both are refused as not confident, so
+// the proposals are what the user sees.
 TEST(AppCalibrate, EdgelsFindTheFrameOfABareCorner) {
     const std::string dir = std::string(VBME_TEST_DATA_DIR) + "/calib_rooms/";
     const double f_true = 822.634015;  // truth.csv, room_016.jpg
@@ -278,8 +273,8 @@ TEST(AppCalibrate, EdgelsFindTheFrameOfABareCorner) {
         const size_t at = out.find("proposal 1: focal ");
         return at == std::string::npos ? -1.0 : std::stod(out.substr(at + 18));
     };
-    const auto seg = vbme_test::run(base + "--out " + std::string(d / "a.yml"));
-    const auto edg = vbme_test::run(base + "--edgels --out " + std::string(d / "b.yml"));
+    const auto seg = vbme_test::run(base + "--no-edgels --out " + std::string(d / "a.yml"));
+    const auto edg = vbme_test::run(base + "--out " + std::string(d / "b.yml"));
     std::printf("room_016 proposal 1: segments %.1f px, edgels %.1f px (true %.1f)\n",
                 first(seg.output), first(edg.output), f_true);
     EXPECT_GT(std::abs(first(seg.output) / f_true - 1), 0.5) << seg.output;

@@ -37,11 +37,7 @@ std::vector<DistortedRender> distortedRenders(const std::string& set = "calib_ro
     std::string line;
     std::getline(in, line);  // name,kind,width,height,f_px,cx,cy,k1,f35,r00..r22
     while (std::getline(in, line)) {
-        std::stringstream ss(line);
-        std::vector<std::string> t;
-        std::string x;
-        while (std::getline(ss, x, ','))
-            t.push_back(x);
+        const std::vector<std::string> t = vbme_test::csvFields(line);
         if (t.size() != 18 || std::stod(t[7]) == 0) continue;
         DistortedRender r;
         r.path = dir + t[0];

@@ -33,7 +33,7 @@ VanishingPointCalibrator::Params changedVp() {
     p.estimate_distortion = true;
     p.fld_pass = false;
     p.fld_pass_below_confidence = 0.8;
-    p.edgel_scoring = true;
+    p.edgel_scoring = false;
     return p;
 }
 

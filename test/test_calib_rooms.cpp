@@ -5,14 +5,28 @@
 // direction accuracy AA@3/5/10 of the GLOBAL search, against the previous RANSAC search on the
 // same images; the same with a focal prior as EXIF would give it; whether the confidence and
 // the "ambiguous" flag tell right answers from wrong ones; plumb-line distortion k1 on the
-// distorted renders. VBME_CALIB_ROOMS_DUMP=dir writes an annotated overlay per image.
+// distorted renders; the same figures over the images whose three directions a labeller could
+// mark (labels.csv, from the scenes' geometry). The set is processed once per build, by the
+// first CalibRooms process (see results()). VBME_CALIB_ROOMS_DUMP=dir writes an annotated
+// overlay per image (and always recomputes).
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cctype>
+#include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <map>
 #include <numeric>
 #include <sstream>
 
@@ -21,6 +35,7 @@
 #include <opencv2/vbme/calib.hpp>
 
 #include "manhattan.hpp"  // white-box: the refinement started from the true frame
+#include "vbme_test_util.hpp"
 
 using namespace cv;
 using namespace cv::vbme;
@@ -43,11 +58,7 @@ std::vector<Truth> readTruth() {
     std::getline(in, line);  // header
     while (std::getline(in, line)) {
         if (line.empty()) continue;
-        std::stringstream ss(line);
-        std::vector<std::string> t;
-        std::string x;
-        while (std::getline(ss, x, ','))
-            t.push_back(x);
+        const std::vector<std::string> t = vbme_test::csvFields(line);
         if (t.size() != 18) continue;
         Truth tr;
         tr.name = dir + t[0];
@@ -252,6 +263,8 @@ struct Results {
     // GLOBAL with a focal prior as EXIF would give it (PNG/JPEG renders carry no EXIF): the
     // true focal length off by +5 % and −5 % on alternate images, with the default prior σ.
     std::vector<Outcome> prior;
+    // The same with the true focal length as the prior (EXIF exactly right).
+    std::vector<Outcome> prior_true;
     // Confidence of proposals that are right (focal within 5 %, directions within 3°) and wrong.
     std::vector<double> conf_right, conf_wrong;
     // The same for the first proposal only (what detect() returns), and how often it is flagged
@@ -261,18 +274,356 @@ struct Results {
     // Proposals after the first, and those whose segments or labels are not the first's (the
     // annotator regroups the first proposal's segments by the one the user chooses).
     int later_proposals = 0, later_off_segments = 0;
+    // Proposals showing more confidence than the one ranked before them (the annotator lists
+    // them in rank order, with their confidences).
+    int later_more_confident = 0;
     // The GLOBAL refinement started from the true frame on the detected segments: signed
     // relative focal drift and the refinement's own relative focal sigma, per image where the
     // search answered.
     std::vector<double> truth_drift, truth_sigma;
-    // The same search with the edge-pixel likelihood (Params::edgel_scoring), without and with
-    // the prior, and the confidence of its first proposals when right and when wrong.
-    std::vector<Outcome> edgels, edgels_prior;
-    std::vector<double> edg_first_right, edg_first_wrong;
+    // The same refined frame's three direction errors (degrees, through the true K, as
+    // Outcome::dir_err), three per image where the search answered.
+    std::vector<double> truth_dir;
+    // The same search without the edge-pixel likelihood (Params::edgel_scoring off: the
+    // segments alone, the default before session 10), without and with the prior, and the
+    // confidence of its first proposals when right and when wrong.
+    std::vector<Outcome> segs_only, segs_only_prior;
+    std::vector<double> seg_first_right, seg_first_wrong;
 };
+
+// ------------------------------------------------------------------------------------------
+// The whole set is processed once per build, not once per test process (gtest_discover_tests
+// runs every CalibRooms test in its own process; the processing takes ~10 s in Release and
+// ~40 s sanitized): the first process computes the results and writes them into the build tree
+// (next to the test program, temp + rename) while holding an flock; the others (ctest -j2)
+// wait on the lock and read them. The file is keyed by a hash of this test program's own bytes
+// (/proc/self/exe) and of every file of test/data/calib_rooms, so any change of code or data
+// recomputes; a file whose key, size or body hash does not match is recomputed, never read.
+// VBME_CALIB_ROOMS_DUMP (the overlays) always recomputes.
+
+/** 64-bit hash of bytes, 8 at a time: (h ^ w) * p is a bijection of h for each word w, so a
+change of any one word always changes the result. */
+struct Hash64 {
+    uint64_t h = 0xcbf29ce484222325ull;
+    uint64_t n = 0;
+    void add(const char* p, size_t len) {
+        size_t i = 0;
+        for (; i + 8 <= len; i += 8) {
+            uint64_t w;
+            std::memcpy(&w, p + i, 8);
+            h = (h ^ w) * 0x100000001b3ull;
+            h ^= h >> 31;
+        }
+        for (; i < len; ++i)
+            h = (h ^ (unsigned char)p[i]) * 0x100000001b3ull;
+        n += len;
+    }
+    void add(const std::string& s) {
+        add(s.data(), s.size());
+        add("\0", 1);
+    }
+    /** Adds a file's bytes; false when it cannot be read. */
+    bool addFile(const std::string& path) {
+        std::ifstream in(path, std::ios::binary);
+        if (!in) return false;
+        std::vector<char> buf(1 << 20);
+        while (in) {
+            in.read(buf.data(), buf.size());
+            add(buf.data(), (size_t)in.gcount());
+        }
+        add(format("|%llu", (unsigned long long)n));
+        return true;
+    }
+    std::string hex() const { return format("%016llx", (unsigned long long)(h ^ (h >> 29))); }
+};
+
+/** Key of the results: this program's bytes and every file of the set (names and bytes). Empty
+when one of them cannot be read (then nothing is cached). */
+std::string resultsKey(const std::string& data_dir) {
+    Hash64 k;
+    k.add("calib_rooms results v1");
+    if (!k.addFile("/proc/self/exe")) return {};
+    std::vector<std::string> names;
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator(data_dir, ec))
+        if (e.is_regular_file()) names.push_back(e.path().filename().string());
+    if (ec) return {};
+    std::sort(names.begin(), names.end());
+    for (const auto& n : names) {
+        k.add(n);
+        if (!k.addFile(data_dir + "/" + n)) return {};
+    }
+    return k.hex();
+}
+
+/** Writes and reads the fields of Results (doubles as hex floats: the same bits back). */
+struct ResultsWriter {
+    std::string s;
+    void num(double x) { s += format(" %a", x); }
+    void str(const std::string& x) { s += format(" %d:", (int)x.size()) + x; }
+    void operator()(const char* tag, int& x) { s += format("%s %d\n", tag, x); }
+    void operator()(const char* tag, std::vector<double>& v) {
+        s += format("%s %d", tag, (int)v.size());
+        for (double x : v)
+            num(x);
+        s += "\n";
+    }
+    void operator()(const char* tag, std::vector<Outcome>& v) {
+        s += format("%s %d\n", tag, (int)v.size());
+        for (Outcome& o : v) {
+            s += format("%d", (int)o.ok);
+            for (double x : {o.focal_err, o.dir_err[0], o.dir_err[1], o.dir_err[2], o.confidence,
+                             o.proposal_confidence, o.k1, o.sigma})
+                num(x);
+            str(o.support);
+            str(o.error);
+            s += "\n";
+        }
+    }
+};
+
+struct ResultsReader {
+    const std::string& s;
+    size_t p = 0;
+    bool ok = true;
+    std::string token() {
+        while (p < s.size() && std::isspace((unsigned char)s[p]))
+            ++p;
+        const size_t b = p;
+        while (p < s.size() && !std::isspace((unsigned char)s[p]))
+            ++p;
+        if (b == p) ok = false;
+        return s.substr(b, p - b);
+    }
+    double num() {
+        const std::string t = token();
+        char* end = nullptr;
+        const double x = std::strtod(t.c_str(), &end);
+        if (t.empty() || *end) ok = false;
+        return x;
+    }
+    long count() {
+        const double x = num();
+        if (!(x >= 0 && x <= 1e6) || x != std::floor(x)) ok = false;
+        return ok ? (long)x : 0;
+    }
+    std::string str() {
+        while (p < s.size() && std::isspace((unsigned char)s[p]))
+            ++p;
+        const size_t colon = s.find(':', p);
+        if (colon == std::string::npos || colon == p || colon - p > 6) {
+            ok = false;
+            return {};
+        }
+        const long n = std::strtol(s.c_str() + p, nullptr, 10);
+        if (n < 0 || colon + 1 + n > s.size()) {
+            ok = false;
+            return {};
+        }
+        p = colon + 1 + n;
+        return s.substr(colon + 1, n);
+    }
+    void tag(const char* t) {
+        if (token() != t) ok = false;
+    }
+    void operator()(const char* t, int& x) {
+        tag(t);
+        x = (int)count();
+    }
+    void operator()(const char* t, std::vector<double>& v) {
+        tag(t);
+        v.resize(count());
+        for (double& x : v)
+            x = num();
+    }
+    void operator()(const char* t, std::vector<Outcome>& v) {
+        tag(t);
+        v.resize(count());
+        for (Outcome& o : v) {
+            if (!ok) return;
+            o.ok = num() != 0;
+            for (double* x : {&o.focal_err, &o.dir_err[0], &o.dir_err[1], &o.dir_err[2],
+                              &o.confidence, &o.proposal_confidence, &o.k1, &o.sigma})
+                *x = num();
+            o.support = str();
+            o.error = str();
+        }
+    }
+};
+
+/** Every field of Results but the truth rows (read again from truth.csv, part of the key): a
+field added to Results must be listed here (the static_assert below is a reminder). */
+template <class V>
+void visitResults(Results& r, V& v) {
+    v("global", r.global);
+    v("ransac", r.ransac);
+    v("dist_k1", r.dist_k1);
+    v("dist_nok1", r.dist_nok1);
+    v("lsd_only", r.lsd_only);
+    v("lsd_first_right", r.lsd_first_right);
+    v("lsd_first_wrong", r.lsd_first_wrong);
+    v("prior", r.prior);
+    v("prior_true", r.prior_true);
+    v("conf_right", r.conf_right);
+    v("conf_wrong", r.conf_wrong);
+    v("first_right", r.first_right);
+    v("first_wrong", r.first_wrong);
+    v("ambiguous", r.ambiguous);
+    v("amb_right", r.amb_right);
+    v("amb_wrong", r.amb_wrong);
+    v("later_proposals", r.later_proposals);
+    v("later_off_segments", r.later_off_segments);
+    v("later_more_confident", r.later_more_confident);
+    v("truth_drift", r.truth_drift);
+    v("truth_sigma", r.truth_sigma);
+    v("truth_dir", r.truth_dir);
+    v("segs_only", r.segs_only);
+    v("segs_only_prior", r.segs_only_prior);
+    v("seg_first_right", r.seg_first_right);
+    v("seg_first_wrong", r.seg_first_wrong);
+}
+static_assert(sizeof(void*) != 8 || sizeof(Results) == 22 * sizeof(std::vector<double>) + 24,
+              "a field added to (or removed from) Results must be listed in visitResults()");
+
+/** The cache file: a header line (format, key, body size, body hash) and the body. */
+std::string serialiseResults(Results r, const std::string& key, const std::string& log) {
+    ResultsWriter w;
+    visitResults(r, w);
+    w.str(log);
+    w.s += "\nend\n";
+    Hash64 h;
+    h.add(w.s.data(), w.s.size());
+    return format("vbme_calib_rooms_results 1 %s %zu %s\n", key.c_str(), w.s.size(),
+                  h.hex().c_str()) +
+           w.s;
+}
+
+/** Parses a cache file; false (and @p why) when its key is not @p key or it is truncated,
+altered or malformed. The truth rows of @p r are left as they are. */
+bool parseResults(const std::string& file, const std::string& key, Results* r, std::string* log,
+                  std::string* why) {
+    const size_t nl = file.find('\n');
+    if (nl == std::string::npos) return *why = "no header", false;
+    std::istringstream hs(file.substr(0, nl));
+    std::string magic, k, hash;
+    int version = 0;
+    size_t size = 0;
+    if (!(hs >> magic >> version >> k >> size >> hash) || magic != "vbme_calib_rooms_results" ||
+        version != 1)
+        return *why = "not a results file", false;
+    if (k != key) return *why = "stale (made by another build or from other data)", false;
+    const std::string body = file.substr(nl + 1);
+    if (body.size() != size) return *why = "truncated or padded", false;
+    Hash64 h;
+    h.add(body.data(), body.size());
+    if (h.hex() != hash) return *why = "altered (body hash)", false;
+    Results out = *r;
+    ResultsReader rd{body};
+    visitResults(out, rd);
+    const std::string lg = rd.str();
+    rd.tag("end");
+    if (!rd.ok) return *why = "malformed", false;
+    *r = std::move(out);
+    *log = lg;
+    return true;
+}
+
+Results computeResults();
+
+/** Runs computeResults() with stdout captured (the per-image lines, printed and cached). */
+Results computeAndCapture(std::string* log) {
+    std::fflush(stdout);
+    char tmpl[] = "/tmp/vbme_calib_rooms_log_XXXXXX";
+    const int fd = mkstemp(tmpl);
+    const int saved = fd >= 0 ? dup(1) : -1;
+    if (saved >= 0) dup2(fd, 1);
+    Results r = computeResults();
+    std::fflush(stdout);
+    if (saved >= 0) {
+        dup2(saved, 1);
+        close(saved);
+        std::ifstream in(tmpl, std::ios::binary);
+        log->assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    if (fd >= 0) {
+        close(fd);
+        std::remove(tmpl);
+    }
+    std::fwrite(log->data(), 1, log->size(), stdout);
+    return r;
+}
+
+/** Where the cache lives: next to this test program, in the build tree. */
+std::string exePath() {
+    std::error_code ec;
+    const auto p = std::filesystem::read_symlink("/proc/self/exe", ec);
+    return ec ? std::string() : p.string();
+}
 
 const Results& results() {
     static const Results r = [] {
+        Results r;
+        for (const auto& t : readTruth())
+            (t.k1 == 0 ? r.plain : r.distorted).push_back(t);
+        std::string log;
+        const std::string exe = exePath();
+        const std::string data = std::string(VBME_TEST_DATA_DIR) + "/calib_rooms";
+        if (std::getenv("VBME_CALIB_ROOMS_DUMP") || exe.empty()) {
+            Results c = computeAndCapture(&log);
+            c.plain = r.plain, c.distorted = r.distorted;
+            return c;
+        }
+        const std::string path = exe + ".calib_rooms_results";
+        const int lock = open((path + ".lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+        if (lock >= 0) flock(lock, LOCK_EX);  // other processes of this build wait here
+        const std::string key = resultsKey(data);
+        std::string why = "no file";
+        {
+            std::ifstream in(path, std::ios::binary);
+            if (in && !key.empty()) {
+                const std::string file((std::istreambuf_iterator<char>(in)),
+                                       std::istreambuf_iterator<char>());
+                if (parseResults(file, key, &r, &log, &why)) {
+                    if (lock >= 0) close(lock);
+                    std::fwrite(log.data(), 1, log.size(), stdout);
+                    std::printf(
+                        "CalibRooms: the whole set's results read from %s (key %s, "
+                        "computed by an earlier process of this build)\n",
+                        path.c_str(), key.c_str());
+                    return r;
+                }
+            }
+        }
+        const auto t0 = std::chrono::steady_clock::now();
+        Results c = computeAndCapture(&log);
+        c.plain = r.plain, c.distorted = r.distorted;
+        const double secs =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        // An image that could not be read fails the test (ADD_FAILURE): such results are not
+        // kept for the next process.
+        if (!key.empty() && lock >= 0 && !::testing::Test::HasFailure()) {
+            const std::string tmp = path + format(".tmp%d", (int)getpid());
+            {
+                std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+                out << serialiseResults(c, key, log);
+            }
+            std::error_code ec;
+            std::filesystem::rename(tmp, path, ec);
+            if (ec) std::remove(tmp.c_str());
+        }
+        std::printf(
+            "CalibRooms: the whole set computed in this process (%.1f s; cache %s: %s), "
+            "kept in %s for the other tests of this build\n",
+            secs, path.c_str(), why.c_str(), path.c_str());
+        if (lock >= 0) close(lock);
+        return c;
+    }();
+    return r;
+}
+
+/** Every image is processed: both methods, proposals, distortion (the results above). */
+Results computeResults() {
+    return [] {
         Results r;
         for (const auto& t : readTruth())
             (t.k1 == 0 ? r.plain : r.distorted).push_back(t);
@@ -289,10 +640,19 @@ const Results& results() {
                 og = evaluate(t, props[0].calibration);
                 og.proposal_confidence = props[0].confidence;
                 double sig = 0;
+                Matx33d Rf;
                 const double f = cv::vbme::detail::refineManhattanFrameFrom(
-                    props[0].calibration.segments, img.size(), pg, t.f, t.R, &sig);
+                    props[0].calibration.segments, img.size(), pg, t.f, t.R, &sig, nullptr, &Rf);
                 r.truth_drift.push_back(f / t.f - 1);
                 r.truth_sigma.push_back(sig);
+                {
+                    FrameCalibration tf;
+                    tf.K = Matx33d(f, 0, t.c.x, 0, f, t.c.y, 0, 0, 1);
+                    for (int a = 0; a < 3; ++a)
+                        tf.vanishing_points[a] = tf.K * Vec3d(Rf(0, a), Rf(1, a), Rf(2, a));
+                    const Outcome ot = evaluate(t, tf);
+                    r.truth_dir.insert(r.truth_dir.end(), ot.dir_err, ot.dir_err + 3);
+                }
                 std::printf("%s: refinement from the true frame: f %+.2f %% (sigma %.2f %%)\n",
                             t.name.substr(t.name.rfind('/') + 1).c_str(),
                             100 * r.truth_drift.back(), 100 * sig);
@@ -315,6 +675,7 @@ const Results& results() {
                     r.ambiguous += p.ambiguous;
                     if (k > 0) {
                         ++r.later_proposals;
+                        r.later_more_confident += p.confidence > props[k - 1].confidence;
                         r.later_off_segments +=
                             p.calibration.segments != props[0].calibration.segments ||
                             p.calibration.labels.size() != props[0].calibration.segments.size();
@@ -351,33 +712,33 @@ const Results& results() {
                         ol.error.c_str());
             {
                 VanishingPointCalibrator::Params pe = pg;
-                pe.edgel_scoring = true;
+                pe.edgel_scoring = false;
                 Outcome oe, oep;
                 try {
                     const auto props = detectManhattanProposals(img, pe, 3);
                     oe = evaluate(t, props[0].calibration);
                     const bool right = oe.focal_err < 0.05 &&
                                        std::max({oe.dir_err[0], oe.dir_err[1], oe.dir_err[2]}) < 3;
-                    (right ? r.edg_first_right : r.edg_first_wrong).push_back(props[0].confidence);
+                    (right ? r.seg_first_right : r.seg_first_wrong).push_back(props[0].confidence);
                     oe.confidence = props[0].confidence;  // printed: the ranked confidence
                 } catch (const cv::Exception& e) {
                     oe.error = e.err;
                 }
                 try {
-                    pe.focal_prior = t.f * (r.edgels_prior.size() % 2 ? 0.95 : 1.05);
+                    pe.focal_prior = t.f * (r.segs_only_prior.size() % 2 ? 0.95 : 1.05);
                     oep = evaluate(t, detectManhattanProposals(img, pe, 1)[0].calibration);
                 } catch (const cv::Exception& e) {
                     oep.error = e.err;
                 }
                 std::printf(
-                    "%s: with edgels f err %.2f %% dir %.2f/%.2f/%.2f conf %.2f; with the "
+                    "%s: segments alone f err %.2f %% dir %.2f/%.2f/%.2f conf %.2f; with the "
                     "prior f err %.2f %% dir %.2f/%.2f/%.2f %s\n",
                     t.name.substr(t.name.rfind('/') + 1).c_str(), 100 * oe.focal_err, oe.dir_err[0],
                     oe.dir_err[1], oe.dir_err[2], oe.confidence, 100 * oep.focal_err,
                     oep.dir_err[0], oep.dir_err[1], oep.dir_err[2],
                     (oe.error + " " + oep.error).c_str());
-                r.edgels.push_back(oe);
-                r.edgels_prior.push_back(oep);
+                r.segs_only.push_back(oe);
+                r.segs_only_prior.push_back(oep);
             }
             Outcome op;
             try {
@@ -388,6 +749,18 @@ const Results& results() {
                 op.error = e.err;
             }
             r.prior.push_back(op);
+            Outcome ot;
+            try {
+                VanishingPointCalibrator::Params pp = pg;
+                pp.focal_prior = t.f;
+                ot = evaluate(t, detectManhattanProposals(img, pp, 1)[0].calibration);
+            } catch (const cv::Exception& e) {
+                ot.error = e.err;
+            }
+            r.prior_true.push_back(ot);
+            std::printf("%s: with the true focal as prior: f err %.2f %% dir %.2f/%.2f/%.2f %s\n",
+                        t.name.substr(t.name.rfind('/') + 1).c_str(), 100 * ot.focal_err,
+                        ot.dir_err[0], ot.dir_err[1], ot.dir_err[2], ot.error.c_str());
             std::printf("%s: with a focal prior %+.0f %%: f err %.2f %% dir %.2f/%.2f/%.2f %s\n",
                         t.name.substr(t.name.rfind('/') + 1).c_str(),
                         r.prior.size() % 2 ? 5.0 : -5.0, 100 * op.focal_err, op.dir_err[0],
@@ -437,7 +810,6 @@ const Results& results() {
         }
         return r;
     }();
-    return r;
 }
 
 // The aims (median focal error ≤ 2 %, AA@3/5/10 ≥ 70/88/96) are printed; the median
@@ -517,26 +889,54 @@ TEST(CalibRooms, FastLineDetectorPassImprovesEveryThreshold) {
     EXPECT_LE(maxOf(r.first_wrong), maxOf(r.lsd_first_wrong));
 }
 
-// A focal prior (EXIF) 5 % off the truth narrows the search and the refinement: fewer large
-// focal errors (p75, p90), more accurate directions, and no more images refused. (The median is
-// not asserted: a prior 5 % off pulls images already within 1–2 % towards 5 %. Measured 1.52 %
-// with the prior against 1.33 % without; with the prior, the LSD pass's frame of room_023 had
-// its focal length within 0.6 % but two directions 4.1–4.6° off, and the FLD pass's frame now
-// taken is 3.0 % off with every direction within 1.3°.)
-TEST(CalibRooms, FocalPriorFivePercentOffHelps) {
+// A focal prior (EXIF). On the segments alone (Params::edgel_scoring off), a prior 5 % off the
+// truth narrows the search and the refinement: fewer large focal errors (p75, p90), more
+// accurate directions, and no more images refused. (The median is not asserted: a prior 5 %
+// off pulls images already within 1–2 % towards 5 %. Measured 1.52 % with the prior against
+// 1.33 % without.) With the edge pixels (the default since session 10) the search without a
+// prior has no large errors left for a prior 5 % off to remove (p90 4.26 %, one image beyond
+// 10 %, the same with the prior), so that premise is gone; asserted instead for the default:
+// the true focal length as the prior lowers the focal median, p75 and p90 and adds no image
+// beyond 10 % or refused, and a prior 5 % off costs little: no image more beyond 10 % or
+// refused, p90 within the larger of the no-prior p90 and the prior's own 5 %, at most 1 point
+// of AA at each threshold (measured 1.52 / 2.93 / 4.42 %, AA 82.1 / 87.4 / 91.8 against 1.22 /
+// 2.92 / 4.26 %, 82.4 / 87.9 / 92.0 without). Not asserted because it is false: the AA of the
+// true prior is LOWER (79.3 / 84.9 / 89.3): with a prior the frames from one vanishing point
+// are not searched, so the bare corner room_016 loses its right frame (two axes 45° off), and
+// room_013's directions go from 0.6–0.9° to 2.0–2.9° (doc/vbme_calib.md, session 10).
+TEST(CalibRooms, FocalPriorHelpsSegmentsRightPriorSharpensFocal) {
     const Results& r = results();
+    ASSERT_EQ(r.segs_only_prior.size(), r.segs_only.size());
+    {
+        const Summary g = summarise(r.segs_only), w = summarise(r.segs_only_prior);
+        print("segments", g, r.plain.size());
+        print("seg+prior", w, r.plain.size());
+        EXPECT_LT(w.p75, g.p75);
+        EXPECT_LT(w.p90, g.p90);
+        EXPECT_GE(w.aa3, g.aa3);
+        EXPECT_GE(w.aa5, g.aa5);
+        EXPECT_GE(w.aa10, g.aa10);
+        // The prior must not cost an answer: before refused frames led to more refinements,
+        // the bare corner room_016 was refused with the prior (2 refusals against 1 without).
+        EXPECT_LE(w.failed, g.failed);
+    }
     ASSERT_EQ(r.prior.size(), r.global.size());
-    const Summary g = summarise(r.global), w = summarise(r.prior);
+    ASSERT_EQ(r.prior_true.size(), r.global.size());
+    const Summary g = summarise(r.global), w = summarise(r.prior), t = summarise(r.prior_true);
     print("global", g, r.plain.size());
     print("+prior", w, r.plain.size());
-    EXPECT_LT(w.p75, g.p75);
-    EXPECT_LT(w.p90, g.p90);
-    EXPECT_GE(w.aa3, g.aa3);
-    EXPECT_GE(w.aa5, g.aa5);
-    EXPECT_GE(w.aa10, g.aa10);
-    // The prior must not cost an answer: before refused frames led to more refinements, the
-    // bare corner room_016 was refused with the prior (2 refusals against 1 without).
+    print("+true f", t, r.plain.size());
+    EXPECT_LT(t.p50, g.p50);
+    EXPECT_LT(t.p75, g.p75);
+    EXPECT_LT(t.p90, g.p90);
+    EXPECT_LE(t.over10, g.over10);
+    EXPECT_LE(t.failed, g.failed);
+    EXPECT_LE(w.over10, g.over10);
     EXPECT_LE(w.failed, g.failed);
+    EXPECT_LE(w.p90, std::max(g.p90, 5.0));
+    EXPECT_GE(w.aa3, g.aa3 - 1);
+    EXPECT_GE(w.aa5, g.aa5 - 1);
+    EXPECT_GE(w.aa10, g.aa10 - 1);
 }
 
 TEST(CalibRooms, ConfidenceFallsForWrongProposals) {
@@ -603,20 +1003,58 @@ TEST(CalibRooms, RefinementFromTheTrueFrameStaysWithinItsUncertainty) {
         std::sqrt(z2 / z.size()));
     EXPECT_LE(percentile(a, 0.5), 0.02);  // measured 1.05 %
     EXPECT_LE(percentile(z, 1.0), 3.0);   // measured 2.77 (room_012)
+
+    // Where the directions' error comes from. On the right answers (focal within 5 %, every
+    // direction within 3°), the refinement started from the true frame lands on the answer's
+    // directions (median gap per direction 0.008°, session 10): the search does not stop
+    // short of the objective's optimum; the remaining error (0.37° per direction on average)
+    // is where the detected segments put that optimum.
+    ASSERT_EQ(r.truth_dir.size(), 3 * r.truth_drift.size());
+    std::vector<double> gap, fin, tru;
+    int same = 0, right = 0;
+    size_t j = 0;
+    for (const Outcome& o : r.global) {
+        if (!o.ok) continue;
+        const double* td = &r.truth_dir[3 * j++];
+        if (!(o.focal_err < 0.05 && std::max({o.dir_err[0], o.dir_err[1], o.dir_err[2]}) < 3))
+            continue;
+        ++right;
+        double g = 0;
+        for (int k = 0; k < 3; ++k) {
+            gap.push_back(std::abs(o.dir_err[k] - td[k]));
+            fin.push_back(o.dir_err[k]);
+            tru.push_back(td[k]);
+            g = std::max(g, gap.back());
+        }
+        same += g < 0.05;
+    }
+    ASSERT_EQ(j, r.truth_drift.size());
+    ASSERT_GE(right, 20);
+    auto mean = [](const std::vector<double>& v) {
+        return std::accumulate(v.begin(), v.end(), 0.0) / v.size();
+    };
+    std::printf(
+        "direction error on the %d right answers: answer mean %.3f, median %.3f deg; refined "
+        "from the true frame mean %.3f, median %.3f deg; |gap| per direction median %.3f, mean "
+        "%.3f deg; %d of %d images within 0.05 deg on all three\n",
+        right, mean(fin), percentile(fin, 0.5), mean(tru), percentile(tru, 0.5),
+        percentile(gap, 0.5), mean(gap), same, right);
+    EXPECT_LE(percentile(gap, 0.5), 0.05);  // measured 0.008
 }
 
-// The edge-pixel likelihood (Params::edgel_scoring, off by default) against the segments alone,
-// on the same images in the same run: frames found by every edge pixel from the strongest
-// vanishing point (room_016's soft wall-ceiling edges) and frames the edgels favour among the
-// hypotheses join the refined ones. Measured (on top of the FLD pass): focal median / p90
-// 1.33 / 14.69 -> 1.22 / 4.26 %, AA@3/5/10 80.3 / 85.1 / 88.8 -> 82.4 / 87.9 / 92.0, images off
-// by more than 10 % 3 -> 1; its wrong first proposal stays less confident (0.127 against a mean
-// of 0.420 for the right ones).
+// The edge-pixel likelihood (Params::edgel_scoring, on by default since session 10) against
+// the segments alone, on the same images in the same run: frames found by every edge pixel
+// from the strongest vanishing point (room_016's soft wall-ceiling edges) and frames the
+// edgels favour among the hypotheses join the refined ones. Measured (on top of the FLD pass):
+// focal median / p90 1.33 / 14.69 -> 1.22 / 4.26 %, AA@3/5/10 80.3 / 85.1 / 88.8 -> 82.4 /
+// 87.9 / 92.0, images off by more than 10 % 3 -> 1; its wrong first proposal stays less
+// confident (0.127 against a mean of 0.420 for the right ones).
 TEST(CalibRooms, EdgelScoringAgainstSegmentsAlone) {
     const Results& r = results();
-    ASSERT_EQ(r.edgels.size(), r.global.size());
-    const Summary g = summarise(r.global), e = summarise(r.edgels), gp = summarise(r.prior),
-                  ep = summarise(r.edgels_prior);
+    ASSERT_EQ(r.segs_only.size(), r.global.size());
+    const Summary g = summarise(r.segs_only), e = summarise(r.global),
+                  gp = summarise(r.segs_only_prior), ep = summarise(r.prior);
+    const std::vector<double>&edg_first_right = r.first_right, &edg_first_wrong = r.first_wrong;
     print("segments", g, r.plain.size());
     print("+edgels", e, r.plain.size());
     print("seg+prior", gp, r.plain.size());
@@ -627,14 +1065,13 @@ TEST(CalibRooms, EdgelScoringAgainstSegmentsAlone) {
     std::printf(
         "edgels, first proposals: %d right (mean confidence %.3f, min %.3f), %d wrong "
         "(mean %.3f, max %.3f)\n",
-        (int)r.edg_first_right.size(), mean(r.edg_first_right),
-        r.edg_first_right.empty()
+        (int)edg_first_right.size(), mean(edg_first_right),
+        edg_first_right.empty() ? 0.0
+                                : *std::min_element(edg_first_right.begin(), edg_first_right.end()),
+        (int)edg_first_wrong.size(), mean(edg_first_wrong),
+        edg_first_wrong.empty()
             ? 0.0
-            : *std::min_element(r.edg_first_right.begin(), r.edg_first_right.end()),
-        (int)r.edg_first_wrong.size(), mean(r.edg_first_wrong),
-        r.edg_first_wrong.empty()
-            ? 0.0
-            : *std::max_element(r.edg_first_wrong.begin(), r.edg_first_wrong.end()));
+            : *std::max_element(edg_first_wrong.begin(), edg_first_wrong.end()));
     EXPECT_LE(e.p50, 2.0);
     EXPECT_LT(e.p90, g.p90);
     EXPECT_LE(e.over10, g.over10);
@@ -646,7 +1083,7 @@ TEST(CalibRooms, EdgelScoringAgainstSegmentsAlone) {
     EXPECT_LE(ep.over10, gp.over10);
     EXPECT_LE(ep.p90, gp.p90 + 0.1);
     EXPECT_GE(ep.aa10, gp.aa10 - 0.1);
-    EXPECT_LT(mean(r.edg_first_wrong), 0.5 * mean(r.edg_first_right));
+    EXPECT_LT(mean(edg_first_wrong), 0.5 * mean(edg_first_right));
 }
 
 TEST(CalibRooms, PlumbLineDistortionWithinTenPercent) {
@@ -682,6 +1119,152 @@ TEST(CalibRooms, ProposalsLabelTheFirstProposalsSegments) {
                 r.later_off_segments);
     EXPECT_GT(r.later_proposals, 0);
     EXPECT_EQ(r.later_off_segments, 0);
+    // ranked by confidence, also where the two segment passes disagree
+    std::printf("proposals more confident than the one ranked before: %d\n",
+                r.later_more_confident);
+    EXPECT_EQ(r.later_more_confident, 0);
+}
+
+// The whole-set results are computed once per build and kept (results()): a file made by
+// another build or from other data, truncated, altered or malformed is refused (and then
+// recomputed), and what is read back is what was written, to the bit.
+TEST(CalibRooms, ResultsCacheRefusesStaleOrCorruptFiles) {
+    const Results& r = results();
+    // A log as long as the real one (its length has 5 digits), starting on a new line.
+    const std::string key = "0123456789abcdef",
+                      log = "room_000.jpg: a per-image line\n" + std::string(40000, 'x') + "\n";
+    const std::string f = serialiseResults(r, key, log);
+    Results back, x;
+    back.plain = r.plain, back.distorted = r.distorted;
+    std::string lg, why;
+    ASSERT_TRUE(parseResults(f, key, &back, &lg, &why)) << why;
+    EXPECT_EQ(serialiseResults(back, key, lg), f);
+    EXPECT_EQ(lg, log);
+    EXPECT_EQ(back.global.size(), r.global.size());
+    EXPECT_FALSE(parseResults(f, "fedcba9876543210", &x, &lg, &why));
+    EXPECT_NE(why.find("stale"), std::string::npos) << why;
+    EXPECT_FALSE(parseResults(f.substr(0, f.size() - 7), key, &x, &lg, &why));
+    EXPECT_NE(why.find("truncated"), std::string::npos) << why;
+    std::string g = f;
+    g[f.size() / 2] ^= 1;
+    EXPECT_FALSE(parseResults(g, key, &x, &lg, &why));
+    EXPECT_NE(why.find("altered"), std::string::npos) << why;
+    EXPECT_FALSE(parseResults("", key, &x, &lg, &why));
+    // A body whose size and hash match its header but which is not a results body.
+    const std::string body = "global 2\n1 0x1p-3\nend\n";
+    Hash64 h;
+    h.add(body.data(), body.size());
+    EXPECT_FALSE(parseResults(format("vbme_calib_rooms_results 1 %s %zu %s\n", key.c_str(),
+                                     body.size(), h.hex().c_str()) +
+                                  body,
+                              key, &x, &lg, &why));
+    EXPECT_EQ(why, "malformed");
+    EXPECT_TRUE(x.global.empty());  // a refused file leaves the results alone
+    // The key follows every byte of the data folder (and a file added to it).
+    const std::string dir =
+        (std::filesystem::temp_directory_path() / format("vbme_calib_rooms_key_%d", (int)getpid()))
+            .string();
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir + "/truth.csv") << "name,f\nroom_000.jpg,339.2\n";
+    const std::string k0 = resultsKey(dir);
+    std::ofstream(dir + "/truth.csv") << "name,f\nroom_000.jpg,339.3\n";
+    const std::string k1 = resultsKey(dir);
+    std::ofstream(dir + "/labels.csv") << "";
+    const std::string k2 = resultsKey(dir);
+    std::filesystem::remove_all(dir);
+    EXPECT_FALSE(k0.empty());
+    EXPECT_NE(k0, k1);
+    EXPECT_NE(k1, k2);
+}
+
+/** One row of labels.csv (scripts/blender/calib_rooms_labels.py): whether a labeller could mark
+the image's three Manhattan directions from its visible edges, and per world axis the number of
+distinct visible lines of at least 5 % of the diagonal and the two longest visible lengths. */
+struct Label {
+    bool labelled = false;
+    int lines[3] = {0, 0, 0};
+    double len1[3] = {0, 0, 0}, len2[3] = {0, 0, 0};
+};
+
+std::map<std::string, Label> readLabels() {
+    std::ifstream in(std::string(VBME_TEST_DATA_DIR) + "/calib_rooms/labels.csv");
+    std::map<std::string, Label> out;
+    std::string line;
+    std::getline(in, line);  // header
+    while (std::getline(in, line)) {
+        const std::vector<std::string> t = vbme_test::csvFields(line);
+        if (t.size() != 11) continue;
+        Label l;
+        l.labelled = t[1] == "1";
+        for (int a = 0; a < 3; ++a) {
+            l.lines[a] = std::stoi(t[2 + a]);
+            l.len1[a] = std::stod(t[5 + 2 * a]);
+            l.len2[a] = std::stod(t[6 + 2 * a]);
+        }
+        out[t[0]] = l;
+    }
+    return out;
+}
+
+// The AA aims come from hand-labelled benchmarks, where every image has its three
+// Manhattan directions marked from visible lines. The same rule for this set, computed from the
+// scenes' geometry, never from any method's answer (scripts/blender/calib_rooms_labels.py,
+// labels.csv): an axis is labellable when at least two distinct edge lines along it each show
+// at least 5 % of the image diagonal, visible and inside the frame; an image is labelled when
+// all three axes are. The figures of every method are printed again over the labelled images
+// (not asserted: the aims are for the full set's assertions above); asserted: every image has a
+// label, and room_030 (one wall corner, no horizontal line) is left out by the rule and refused
+// by the default search.
+TEST(CalibRooms, LabelledDirectionsSubset) {
+    const Results& r = results();
+    const std::map<std::string, Label> labels = readLabels();
+    std::vector<size_t> keep;
+    std::string excluded;
+    int i030 = -1;
+    for (size_t i = 0; i < r.plain.size(); ++i) {
+        const std::string name = r.plain[i].name.substr(r.plain[i].name.rfind('/') + 1);
+        const auto it = labels.find(name);
+        ASSERT_NE(it, labels.end()) << name << " has no row in labels.csv";
+        if (name == "room_030.jpg") i030 = (int)i;
+        if (it->second.labelled) {
+            keep.push_back(i);
+            continue;
+        }
+        const Label& l = it->second;
+        std::printf(
+            "not labelled: %s: lines >= 5 %% of the diagonal x/y/z %d/%d/%d; two longest x "
+            "%.0f, %.0f; y %.0f, %.0f; z %.0f, %.0f px\n",
+            name.c_str(), l.lines[0], l.lines[1], l.lines[2], l.len1[0], l.len2[0], l.len1[1],
+            l.len2[1], l.len1[2], l.len2[2]);
+        excluded += (excluded.empty() ? "" : " ") + name.substr(0, name.size() - 4);
+    }
+    std::printf("labelled: %d of %d images (left out: %s)\n", (int)keep.size(), (int)r.plain.size(),
+                excluded.c_str());
+    auto subset = [&](const std::vector<Outcome>& v) {
+        std::vector<Outcome> out;
+        for (size_t i : keep)
+            out.push_back(v[i]);
+        return out;
+    };
+    // lsd: the default with fld_pass off; segments: edgel_scoring off (the default before
+    // session 10); global: the default (edge pixels on).
+    const std::pair<const char*, const std::vector<Outcome>*> methods[] = {
+        {"ransac", &r.ransac},
+        {"lsd", &r.lsd_only},
+        {"segments", &r.segs_only},
+        {"global", &r.global},
+        {"seg+prior", &r.segs_only_prior},
+        {"+prior", &r.prior},
+        {"+true f", &r.prior_true}};
+    std::printf("all %d images:\n", (int)r.plain.size());
+    for (const auto& m : methods)
+        print(m.first, summarise(*m.second), r.plain.size());
+    std::printf("the %d labelled images:\n", (int)keep.size());
+    for (const auto& m : methods)
+        print(m.first, summarise(subset(*m.second)), keep.size());
+    ASSERT_GE(i030, 0);
+    EXPECT_FALSE(labels.at("room_030.jpg").labelled);
+    EXPECT_FALSE(r.global[i030].ok) << "room_030 answered: f err " << r.global[i030].focal_err;
 }
 
 }  // namespace

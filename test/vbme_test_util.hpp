@@ -9,7 +9,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <sstream>
 #include <string>
+#include <vector>
 
 namespace vbme_test {
 
@@ -40,6 +42,17 @@ public:
 private:
     std::filesystem::path path_;
 };
+
+/** @brief The comma-separated fields of one line of a CSV file without quoting (the test
+data's truth.csv and labels.csv). */
+inline std::vector<std::string> csvFields(const std::string& line) {
+    std::vector<std::string> t;
+    std::stringstream ss(line);
+    std::string x;
+    while (std::getline(ss, x, ','))
+        t.push_back(x);
+    return t;
+}
 
 /** @brief Result of running a command: exit code and combined stdout+stderr. */
 struct RunResult {

@@ -19,7 +19,7 @@ struct CalibrateOptions {
     bool auto_detect = false, no_exif = false;
     double camera_height = 0, focal = 0, focal_35mm = 0;
     std::string distortion, method = "global";
-    bool edgels = false;
+    bool edgels = false, no_edgels = false;  // given explicitly (the edge pixels are on by default)
     int proposals = 0;
     CommonOptions common;
 };
@@ -73,10 +73,11 @@ void runCalibrate(const CalibrateOptions& o) {
         }
     }
     opt.vp.estimate_distortion = o.distortion == "k1";
-    opt.vp.edgel_scoring = o.edgels;
-    if (o.edgels && !(ann.lines.empty() && o.auto_detect))
+    opt.vp.edgel_scoring = !o.no_edgels;
+    if ((o.edgels || o.no_edgels) && !(ann.lines.empty() && o.auto_detect))
         CV_Error(cv::Error::StsBadArg,
-                 "--edgels applies to automatic detection only (--auto without annotated lines)");
+                 std::string(o.edgels ? "--edgels" : "--no-edgels") +
+                     " applies to automatic detection only (--auto without annotated lines)");
     if (opt.vp.estimate_distortion && !(ann.lines.empty() && o.auto_detect))
         CV_Error(cv::Error::StsBadArg,
                  "--distortion k1 is estimated by automatic detection only (--auto without "
@@ -180,9 +181,14 @@ void setupCalibrate(CLI::App& app) {
                    "Automatic search: 'global' (exhaustive over vanishing-point candidates, "
                    "default) or 'ransac' (the previous method)")
         ->check(CLI::IsMember({"global", "ransac"}));
-    app.add_flag("--edgels", o->edgels,
-                 "With --auto: also find and score Manhattan frames with every edge pixel (more "
-                 "right answers on hard photographs, about 1.5x the time; see doc/vbme_calib.md)");
+    auto* edg = app.add_flag(
+        "--edgels", o->edgels,
+        "With --auto: also find and score Manhattan frames with every edge pixel (the default; "
+        "more right answers on hard photographs, about 1.5x the time of --no-edgels; see "
+        "doc/vbme_calib.md)");
+    app.add_flag("--no-edgels", o->no_edgels,
+                 "With --auto: the line segments alone, without the edge pixels (faster)")
+        ->excludes(edg);
     app.add_option("--proposals", o->proposals,
                    "With --auto: print this many ranked Manhattan frames with confidences")
         ->check(CLI::Range(1, 10));

@@ -50,10 +50,13 @@ from mathutils import Matrix, Vector
 W, H = 640, 480
 
 
-def parse_args():
+def parse_args(defaults=None):
+    """--key value pairs after Blender's "--" into a copy of defaults (this script's when None),
+    each value converted to its default's type; an unknown key stops the script."""
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    a = {"out": "calib_rooms", "count": 32, "seed": 19, "samples": 12, "only": -1, "skip_existing": 0, "truth_only": 0,
-         "lens": "resample", "distorted_only": 0}
+    a = dict(defaults) if defaults is not None else {
+        "out": "calib_rooms", "count": 32, "seed": 19, "samples": 12, "only": -1, "skip_existing": 0,
+        "truth_only": 0, "lens": "resample", "distorted_only": 0}
     i = 0
     while i < len(argv):
         k = argv[i].lstrip("-")
@@ -494,6 +497,21 @@ def postprocess(src_png, dst_jpg, rng, f, k1, overscan):
     bpy.data.images.remove(res)
 
 
+
+def draw_lens(rng, idx):
+    """The image's lens, the first draws of its random stream (calib_rooms_labels.py rebuilds
+    the same scenes from them): (distorted, f35, k1, f in px)."""
+    # Every fifth image (wide lenses) carries radial distortion.
+    distorted = idx % 5 == 4
+    f35 = math.exp(rng.uniform(math.log(18), math.log(70)))
+    k1 = 0.0
+    if distorted:
+        # Barrel distortion of at most ~15 % at the corners (the model stays invertible).
+        f35 = rng.uniform(22, 32)
+        rd2 = ((W - 1) ** 2 + (H - 1) ** 2) / 4.0 / (f35 / 36.0 * W) ** 2
+        k1 = -rng.uniform(0.4, 1.0) * min(0.25, 0.15 / rd2)
+    return distorted, f35, k1, f35 / 36.0 * W
+
 def main():
     a = parse_args()
     os.makedirs(a["out"], exist_ok=True)
@@ -507,16 +525,7 @@ def main():
     for idx in range(a["count"]):
         name = "room_%03d.jpg" % idx
         rng = random.Random(a["seed"] * 1000 + idx)
-        # Every fifth image (wide lenses) carries radial distortion.
-        distorted = idx % 5 == 4
-        f35 = math.exp(rng.uniform(math.log(18), math.log(70)))
-        k1 = 0.0
-        if distorted:
-            # Barrel distortion of at most ~15 % at the corners (the model stays invertible).
-            f35 = rng.uniform(22, 32)
-            rd2 = ((W - 1) ** 2 + (H - 1) ** 2) / 4.0 / (f35 / 36.0 * W) ** 2
-            k1 = -rng.uniform(0.4, 1.0) * min(0.25, 0.15 / rd2)
-        f = f35 / 36.0 * W
+        distorted, f35, k1, f = draw_lens(rng, idx)
         if (a["only"] >= 0 and idx != a["only"]) or (a["distorted_only"] and not distorted):
             if name in existing:
                 rows.append(existing[name])

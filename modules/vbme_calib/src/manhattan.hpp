@@ -67,12 +67,13 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& segment
 rotation, no distortion) started from a given frame: @p focal (px) and @p R (cam_from_world,
 columns the world axes in camera coordinates), principal point as in @p params. Returns the
 refined focal length; @p focal_rel_sigma (if given) its relative standard deviation and
-@p score (if given) the refined frame's consensus score. White-box: lets tests start the
-refinement from the true frame to tell a biased objective from a badly chosen start. */
+@p score (if given) the refined frame's consensus score and @p R_out (if given) the refined
+rotation (cam_from_world; its columns may be permuted or negated as @p R's). White-box: lets tests
+start the refinement from the true frame to tell a biased objective from a badly chosen start. */
 double refineManhattanFrameFrom(const std::vector<Vec4f>& segments, Size size,
                                 const VanishingPointCalibrator::Params& params, double focal,
                                 const Matx33d& R, double* focal_rel_sigma = nullptr,
-                                double* score = nullptr);
+                                double* score = nullptr, Matx33d* R_out = nullptr);
 
 }  // namespace detail
 }  // namespace vbme

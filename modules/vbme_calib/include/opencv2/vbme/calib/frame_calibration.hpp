@@ -174,9 +174,12 @@ public:
         vanishing point alone (the other two directions from the edge pixels, refined by the
         segments with the edgels' focal length as a prior; not with `focal` or `focal_prior`)
         and the hypotheses the edgels score best are refined too; ranking and confidence stay
-        those of the segments. About 1.5× the CPU time (73.5 vs 47.7 ms per render). Not with
-        `estimate_distortion`. Measured in doc/vbme_calib.md, "Edge pixels (session 9)". */
-        bool edgel_scoring = false;
+        those of the segments. On by default since session 10 (the edge pixels also decide
+        whether a rival frame makes a proposal `ambiguous`); about 1.5× the CPU time of the
+        segments alone (81.7 vs 55.3 ms per render). Not with `estimate_distortion`. Measured
+        in doc/vbme_calib.md, "Edge pixels (session 9)" and "Ambiguity and the edge pixels on
+        by default (session 10)". */
+        bool edgel_scoring = true;
 
         /** @brief Reads the fields present in @p node (others keep their values); an
         unknown key or a value check() refuses is an error. */
@@ -218,12 +221,18 @@ struct CV_EXPORTS ManhattanProposal {
     double score = 0;
     /** @brief In [0, 1]: the frame's own quality (calibration.confidence) times its share of
     the frames' `calibration.confidence × (score / best score)⁸`; low when another frame scores
-    close. Proposals are ranked by that product. Halved when the LSD and the LSD +
-    FastLineDetector segment passes give different first frames (Params::fld_pass). */
+    close. Proposals are ranked by that product (`calibration.confidence × (score / best
+    score)⁸`). Halved when the LSD and the LSD + FastLineDetector segment passes give different
+    first frames (Params::fld_pass). Capped so that no proposal shows more confidence than one
+    ranked before it. */
     double confidence = 0;
-    /** @brief Set on the first proposal and on every other reaching at least half its
-    `calibration.confidence × (score / best score)⁸`, when there is such a second one: two
-    frames are plausible and the user should choose. */
+    /** @brief Set on the first proposal and on every other that rivals it, when there is
+    one: two frames are plausible and the user should choose. A rival reaches at least half
+    the first's `calibration.confidence × (score / best score)⁸`, labels more than 10 % of the
+    segment length the two frames explain differently (frames grouping the segments alike
+    differ only by the focal length's own uncertainty, `calibration.focal_rel_sigma`), and,
+    with Params::edgel_scoring, has an edgel score (mean log-likelihood ratio per edge pixel)
+    no more than 0.05 below the first's. */
     bool ambiguous = false;
     std::string note;  //!< human-readable reason for the confidence ("", or why it is low)
 };
