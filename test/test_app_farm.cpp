@@ -23,7 +23,7 @@ using namespace vbme_test;
 namespace fs = std::filesystem;
 
 // Samples per pixel that make a 64x48 frame of the requeue test take a fraction of a second.
-constexpr int kRequeueSpp = 64;
+constexpr int kRequeueSpp = 128;
 
 std::string farmCmd(const FaultInputs& in, const std::string& out, const std::string& extra) {
     return std::string(VBME_EXE) + " farm slurm --video '" + in.video + "' --scene '" + in.scene +
@@ -196,73 +196,103 @@ TEST(AppFarm, SlurmRequeuedTaskResumesToTheSameVideo) {
     const std::string ref = dir / "ref.mkv", spp_arg = " --spp " + std::to_string(spp);
     const double t_one = secondsOf([&] { r = run(insertCmd(in, ref, dir / "ref_work", spp_arg)); });
     ASSERT_EQ(r.code, 0) << r.output;
-    const std::string out = dir / "farm.mkv", frames = dir / "farm_work/frames";
-    const auto t0 = std::chrono::steady_clock::now();
-    r = run(env + farmCmd(in, out, "--tasks 2 --cpus 1 --submit" + spp_arg));
-    ASSERT_EQ(r.code, 0) << r.output;
+    // Each attempt submits the farm afresh; a new attempt only when task 1 finished its frames
+    // before it could be stopped mid-way (see below).
     std::smatch m;
-    ASSERT_TRUE(std::regex_search(r.output, m, std::regex("render (\\d+) \\(array\\)")))
-        << r.output;
-    const std::string task = m[1].str() + "_1";  // frames 3, 4, 5
-    // wait for task 1 to be running with frame 3 written and frame 5 not, then requeue it
+    std::string out, work, task;
+    auto t0 = std::chrono::steady_clock::now();
     bool requeued = false;
-    for (int i = 0; i < 1200 && !requeued; ++i) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(50));
-        if (fs::exists(out)) break;
-        if (!fs::exists(frames + "/frame_00003.png") || fs::exists(frames + "/frame_00005.png"))
-            continue;
-        const auto q = run(env + "squeue -h -t R -j " + task + " -o %i");
-        if (q.output.find(task) == std::string::npos) continue;
-        // Stop the task where it is (SIGSTOP) before requeueing it: a task that finished its
-        // last frame between the checks above and the requeue would let the assembly run
-        // first (a race seen once in Release). A suspended job is requeued all the same.
-        const auto sus = run(env + "scontrol suspend " + task);
-        if (sus.code != 0) continue;  // it left the running state meanwhile: look again
-        const double t_rq =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        const auto rq = run(env + "scontrol requeue " + task);
-        ASSERT_EQ(rq.code, 0) << rq.output;
-        // The killed run's slurmstepd removes the job's spool folder when it has finished; a
-        // rerun launched before that (same job id, same folder) loses its script to that
-        // clean-up, fails to launch and is held again (reason launch_failed_requeued_held,
-        // seen once on CI under ASan). So let the rerun start only once that folder is gone.
-        std::string job_id = task;
-        {
-            const auto sj = run(env + "scontrol show job " + task);
-            std::smatch jm;
-            if (std::regex_search(sj.output, jm, std::regex("JobId=(\\d+)"))) job_id = jm[1];
-        }
-        const std::string spool =
-            sdir + "/spool/d/" + cv::format("job%05d", std::atoi(job_id.c_str()));
-        // Slurm holds a requeued job back (pending, reason BeginTime: two minutes measured
-        // here; or held, JobHeldAdmin, when it was suspended; or launch_failed_requeued_held
-        // after a failed launch) once the killed run has completed; let it start again at once
-        bool restarted = false;
-        for (int k = 0; k < 600 && !restarted; ++k) {
-            const auto st = run(env + "squeue -h -j " + task + " -o '%T %r'");
-            const bool old_run_gone = !fs::exists(spool);
-            if (old_run_gone && st.output.find("BeginTime") != std::string::npos)
-                run(env + "scontrol update JobId=" + task + " StartTime=now");
-            if (old_run_gone && (st.output.find("held") != std::string::npos ||
-                                 st.output.find("Held") != std::string::npos))
-                run(env + "scontrol release " + task);
-            restarted = st.output.find("RUNNING") != std::string::npos ||
-                        st.output.find_first_not_of(" \n") == std::string::npos;
+    const auto waitForEmptyQueue = [&](std::string* last_queue) {
+        for (int i = 0; i < 1200; ++i) {
             std::this_thread::sleep_for(std::chrono::milliseconds(100));
+            const auto q = run(env + "squeue -h -o '%i %T %r'");
+            if (last_queue) *last_queue = q.output;
+            if (q.code == 0 && q.output.find_first_not_of(" \n") == std::string::npos) break;
+            if (q.output.find("DependencyNeverSatisfied") != std::string::npos) break;  // failed
         }
-        EXPECT_TRUE(restarted) << "the requeued task did not start again within 60 s";
-        requeued = true;
-        std::printf("requeued task %s %.2f s after the submission\n", task.c_str(), t_rq);
+    };
+    for (int attempt = 0; attempt < 4 && !requeued; ++attempt) {
+        out = dir / cv::format("farm%d.mkv", attempt);
+        work = dir / cv::format("farm%d_work", attempt);
+        const std::string frames = work + "/frames";
+        t0 = std::chrono::steady_clock::now();
+        r = run(env + farmCmd(in, out, "--tasks 2 --cpus 1 --submit" + spp_arg));
+        ASSERT_EQ(r.code, 0) << r.output;
+        ASSERT_TRUE(std::regex_search(r.output, m, std::regex("render (\\d+) \\(array\\)")))
+            << r.output;
+        task = m[1].str() + "_1";  // frames 3, 4, 5
+        // wait for task 1 to be running with frame 3 written and frame 5 not, then requeue it
+        for (int i = 0; i < 1200 && !requeued; ++i) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(50));
+            if (fs::exists(out)) break;
+            if (!fs::exists(frames + "/frame_00003.png") || fs::exists(frames + "/frame_00005.png"))
+                continue;
+            const auto q = run(env + "squeue -h -t R -j " + task + " -o %i");
+            if (q.output.find(task) == std::string::npos) continue;
+            // Stop the task where it is (SIGSTOP) before requeueing it; a suspended job is
+            // requeued all the same.
+            const auto sus = run(env + "scontrol suspend " + task);
+            if (sus.code != 0) continue;  // it left the running state meanwhile: look again
+            // SIGSTOP is sent: look at its frames again now that the task cannot move on. Frames
+            // take a fraction of a second, so it may have finished them (and written the video,
+            // being the last task) between the checks above and the stop: then there is nothing
+            // left to resume, so let it end and submit the farm again.
+            std::this_thread::sleep_for(std::chrono::milliseconds(200));
+            if (fs::exists(frames + "/frame_00005.png") || fs::exists(out)) {
+                run(env + "scontrol resume " + task);
+                std::printf("attempt %d: task %s finished its frames before it stopped\n", attempt,
+                            task.c_str());
+                break;
+            }
+            const double t_rq =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            const auto rq = run(env + "scontrol requeue " + task);
+            ASSERT_EQ(rq.code, 0) << rq.output;
+            // The killed run's slurmstepd removes the job's spool folder when it has finished; a
+            // rerun launched before that (same job id, same folder) loses its script to that
+            // clean-up, fails to launch and is held again (reason launch_failed_requeued_held,
+            // seen once on CI under ASan). So let the rerun start only once that folder is gone.
+            std::string job_id = task;
+            {
+                const auto sj = run(env + "scontrol show job " + task);
+                std::smatch jm;
+                if (std::regex_search(sj.output, jm, std::regex("JobId=(\\d+)"))) job_id = jm[1];
+            }
+            const std::string spool =
+                sdir + "/spool/d/" + cv::format("job%05d", std::atoi(job_id.c_str()));
+            // Slurm holds a requeued job back (pending, reason BeginTime: two minutes measured
+            // here; or held, JobHeldAdmin, when it was suspended; or launch_failed_requeued_held
+            // after a failed launch) once the killed run has completed; let it start again at once
+            bool restarted = false;
+            std::string seen, last;  // the states seen while waiting, for the failure message
+            for (int k = 0; k < 600 && !restarted; ++k) {
+                const auto st = run(env + "squeue -h -j " + task + " -o '%T %r'");
+                // (after 10 s the folder is not waited for any longer)
+                const bool spool_there = fs::exists(spool), old_run_gone = !spool_there || k > 100;
+                const std::string state =
+                    st.output.substr(0, st.output.find('\n')) + (spool_there ? " (spool)" : "");
+                if (state != last && seen.size() < 2000)
+                    seen += cv::format("%.1f s: ", k * 0.1) + state + "\n";
+                last = state;
+                if (old_run_gone && st.output.find("BeginTime") != std::string::npos)
+                    run(env + "scontrol update JobId=" + task + " StartTime=now");
+                if (old_run_gone && (st.output.find("held") != std::string::npos ||
+                                     st.output.find("Held") != std::string::npos))
+                    run(env + "scontrol release " + task);
+                restarted = st.output.find("RUNNING") != std::string::npos ||
+                            st.output.find_first_not_of(" \n") == std::string::npos;
+                std::this_thread::sleep_for(std::chrono::milliseconds(100));
+            }
+            EXPECT_TRUE(restarted) << "the requeued task did not start again within 60 s; seen:\n"
+                                   << seen;
+            requeued = true;
+            std::printf("requeued task %s %.2f s after the submission\n", task.c_str(), t_rq);
+        }
+        if (!requeued) waitForEmptyQueue(nullptr);  // the missed attempt's jobs end first
     }
     ASSERT_TRUE(requeued) << "task " << task << " was never seen running mid-way";
     std::string last_queue;
-    for (int i = 0; i < 1200; ++i) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(100));
-        const auto q = run(env + "squeue -h -o '%i %T %r'");
-        last_queue = q.output;
-        if (q.code == 0 && q.output.find_first_not_of(" \n") == std::string::npos) break;
-        if (q.output.find("DependencyNeverSatisfied") != std::string::npos) break;  // failed
-    }
+    waitForEmptyQueue(&last_queue);
     const double t_farm =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const auto show = run(env + "scontrol show job " + task);
@@ -274,7 +304,7 @@ TEST(AppFarm, SlurmRequeuedTaskResumesToTheSameVideo) {
     EXPECT_TRUE(std::regex_search(show.output, m, std::regex("Restarts=[1-9]"))) << show.output;
     if (!fs::exists(out)) {
         std::string logs;
-        for (const auto& e : fs::directory_iterator(dir / "farm_work/slurm"))
+        for (const auto& e : fs::directory_iterator(work + "/slurm"))
             if (e.path().extension() == ".log") {
                 std::ifstream f(e.path());
                 logs += e.path().filename().string() + ":\n" +
@@ -290,7 +320,7 @@ TEST(AppFarm, SlurmRequeuedTaskResumesToTheSameVideo) {
         EXPECT_TRUE(sameImage(got[i], want[i])) << "frame " << i;
     // the requeued task's second run resumed: its log (rewritten by the rerun) counts frames
     // already done
-    std::ifstream f(dir / ("farm_work/slurm/render_" + task + ".log"));
+    std::ifstream f(work + "/slurm/render_" + task + ".log");
     const std::string log((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
     ASSERT_TRUE(std::regex_search(log, m,
                                   std::regex("frames 3:6 of 6: (\\d+) rendered, (\\d+) "
