@@ -11,6 +11,8 @@
 #include <opencv2/vbme/calib.hpp>
 #include <opencv2/vbme/datasets/room.hpp>
 
+#include "manhattan.hpp"  // white-box: the confidence factor of the support's spread
+
 using namespace cv;
 using namespace cv::vbme;
 
@@ -177,4 +179,78 @@ TEST(CalibDetect, ClutterOfNonManhattanLinesIsRejectedAsOutliers) {
             imwrite(format("/tmp/calib_clutter_%d.png", trial), ov);
         }
     }
+}
+
+namespace {
+
+/** A segment of length @p len centred on @p m, pointing at the homogeneous image point @p v. */
+Vec4f towards(const Vec3d& v, const Point2d& m, double len) {
+    Vec2d d(v[0] - m.x * v[2], v[1] - m.y * v[2]);
+    d = normalize(d);
+    return Vec4f((float)(m.x - d[0] * len / 2), (float)(m.y - d[1] * len / 2),
+                 (float)(m.x + d[0] * len / 2), (float)(m.y + d[1] * len / 2));
+}
+
+/** A frame (f 600 px, turned 30° about the vertical, looking 10° down) whose first direction
+(the vertical, 10 lines) spans the image and whose second and third directions' segments are
+centred on @p second and @p third (lengths @p len). */
+FrameCalibration spreadFrame(const std::vector<Point2d>& second, const std::vector<Point2d>& third,
+                             double len) {
+    const Size size(640, 480);
+    const Camera c = roomCamera(600, 30, -10, 0, 1.5, size);
+    FrameCalibration fc;
+    fc.image_size = size;
+    fc.K = c.K;
+    fc.R = c.R;
+    auto vp = [&](int a) { return Vec3d(c.K * Vec3d(c.R(0, a), c.R(1, a), c.R(2, a))); };
+    for (int k = 0; k < 10; ++k) {
+        fc.segments.push_back(towards(vp(2), Point2d(40 + 62 * k, 140 + 20 * (k % 3)), 200));
+        fc.labels.push_back(2);
+    }
+    for (const Point2d& m : second) {
+        fc.segments.push_back(towards(vp(0), m, len));
+        fc.labels.push_back(0);
+    }
+    for (const Point2d& m : third) {
+        fc.segments.push_back(towards(vp(1), m, len));
+        fc.labels.push_back(1);
+    }
+    return fc;
+}
+
+}  // namespace
+
+TEST(CalibDetect, ConfidenceFallsWhenTwoDirectionsRestOnOneSmallBox) {
+    // The room's vertical across the image in each case; the two horizontal directions on
+    // lines spread over the image (a room), on a small box in one ninth of it (a box turned
+    // about the vertical gives a frame of its own: wrong, and must not look sure), or on six
+    // pieces of two lines.
+    const FrameCalibration room =
+        spreadFrame({{100, 400}, {250, 60}, {420, 420}, {560, 90}, {320, 250}, {150, 200}},
+                    {{80, 80}, {300, 440}, {500, 300}, {600, 420}, {200, 330}}, 120);
+    const FrameCalibration box = spreadFrame({{430, 330}, {445, 345}, {460, 360}, {475, 375}},
+                                             {{430, 375}, {445, 360}, {460, 345}, {475, 330}}, 40);
+    // Three pieces along each of two lines of the second direction (gaps of 10 px).
+    const Camera cam = roomCamera(600, 30, -10, 0, 1.5, Size(640, 480));
+    const Vec3d v0 = cam.K * Vec3d(cam.R(0, 0), cam.R(1, 0), cam.R(2, 0));
+    std::vector<Point2d> on_two_lines;
+    for (const Point2d& a : {Point2d(160, 400), Point2d(460, 100)}) {
+        const Vec4f s = towards(v0, a, 2);
+        const Point2d d = (Point2d(s[2], s[3]) - Point2d(s[0], s[1])) / 2.0;
+        for (int t = -1; t <= 1; ++t)
+            on_two_lines.push_back(a + d * (60.0 * t));
+    }
+    const FrameCalibration pieces =
+        spreadFrame(on_two_lines, {{80, 80}, {300, 440}, {500, 300}, {600, 420}, {200, 330}}, 50);
+    std::string why;
+    EXPECT_GT(vbme::detail::supportSpread(room, &why), 0.99) << why;
+    EXPECT_TRUE(why.empty()) << why;
+    EXPECT_LT(vbme::detail::supportSpread(box, &why), 0.1);
+    EXPECT_NE(why.find("ninth"), std::string::npos) << why;
+    // Six pieces on two lines: support of two lines, not six (min(1, 2 / 4) against 1).
+    const double s = vbme::detail::supportSpread(pieces, &why);
+    EXPECT_NEAR(s, 0.5, 0.05) << why;
+    EXPECT_NE(why.find("2 distinct lines"), std::string::npos) << why;
+    std::printf("support's spread: lines over the image %.3f, small box %.3f, two lines %.3f\n",
+                vbme::detail::supportSpread(room), vbme::detail::supportSpread(box), s);
 }

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <map>
+#include <string>
 #include <vector>
 
 #include "opencv2/vbme/calib/frame_calibration.hpp"
@@ -62,6 +63,18 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& segment
                                                const VanishingPointCalibrator::Params& params,
                                                int max_proposals, const Mat& gray = Mat(),
                                                const Edgels* shared_edgels = nullptr);
+
+/** How far a frame's support is the room's rather than one object's or one edge's, in [0, 1]: a
+factor of the confidence (proposeManhattan). The search's own confidence counts the second
+direction's segments (4 or more: full) and its length share; here (1) the second direction's
+support is counted in distinct lines instead of pieces (an edge found in three pieces is one
+line: min(1, lines / 4) replaces min(1, segments / 4)), and (2) a frame whose second and third
+directions rest mostly on one ninth of the image (a box turned about the vertical, a few tile
+joints, the pieces of one corner) is one object's frame, not the room's: the factor falls
+linearly from 1 to 0 as the largest share of their length inside one window of a third of the
+width and height goes from half to all of it. Directions ranked by segment count as in the
+search. @p why (if given) says which applied. */
+double supportSpread(const FrameCalibration& c, std::string* why = nullptr);
 
 /** The GLOBAL search's refinement (relabelling + robust joint refinement of focal length and
 rotation, no distortion) started from a given frame: @p focal (px) and @p R (cam_from_world,

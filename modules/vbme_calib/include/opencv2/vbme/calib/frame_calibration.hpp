@@ -83,7 +83,10 @@ struct CV_EXPORTS FrameCalibration {
     int support[3] = {0, 0, 0};  //!< segments supporting each world axis
     /** @brief In [0, 1]: share of the segments' length explained by the three directions,
     reduced when the second-best direction has few segments and (automatic detection) divided
-    by `1 + (focal_rel_sigma / 0.04)²` (1 for user-given lines). */
+    by `1 + (focal_rel_sigma / 0.04)²` (1 for user-given lines). Automatic detection also
+    multiplies it, after the ranking, by the support's spread: the second direction counted in
+    distinct lines rather than pieces, and a factor falling when the second and third
+    directions' segments lie mostly in one ninth of the image (one object's frame). */
     double confidence = 0;
     double rms_px = 0;  //!< RMS distance of segment endpoints to their VP lines
     /** @brief Relative standard deviation of the focal length (automatic detection: from the
@@ -223,7 +226,8 @@ struct CV_EXPORTS ManhattanProposal {
     the frames' `calibration.confidence × (score / best score)⁸`; low when another frame scores
     close. Proposals are ranked by that product (`calibration.confidence × (score / best
     score)⁸`). Halved when the LSD and the LSD + FastLineDetector segment passes give different
-    first frames (Params::fld_pass). Capped so that no proposal shows more confidence than one
+    first frames (Params::fld_pass). Then multiplied, as calibration.confidence, by the
+    support's spread (ranks nothing). Capped so that no proposal shows more confidence than one
     ranked before it. */
     double confidence = 0;
     /** @brief Set on the first proposal and on every other that rivals it, when there is
