@@ -11,7 +11,7 @@
 #include <opencv2/vbme/calib.hpp>
 #include <opencv2/vbme/datasets/room.hpp>
 
-#include "manhattan.hpp"  // white-box: the confidence factor of the support's spread
+#include "manhattan.hpp"  // white-box: the support's spread, the refinement's pass weights
 
 using namespace cv;
 using namespace cv::vbme;
@@ -253,4 +253,92 @@ TEST(CalibDetect, ConfidenceFallsWhenTwoDirectionsRestOnOneSmallBox) {
     EXPECT_NE(why.find("2 distinct lines"), std::string::npos) << why;
     std::printf("support's spread: lines over the image %.3f, small box %.3f, two lines %.3f\n",
                 vbme::detail::supportSpread(room), vbme::detail::supportSpread(box), s);
+}
+
+// Params::pass_weight. From the true frame, 10 exact segments per direction that every LSD pass
+// found (m = 3) and 10 of the first direction that one pass found alone (m = 1), pointing at
+// its vanishing point turned by 0.8° (the soft, biased edges of doc/vbme_calib.md): weighted,
+// the exact segments outweigh the biased ones and the direction moves less. Unweighted (and
+// with the weight but every segment found by one pass, or no pass counts given) the result
+// is today's, bit for bit.
+TEST(CalibDetect, PassWeightLetsSegmentsEveryPassFoundOutweighTheOthers) {
+    const Size size(1000, 750);
+    const double f = 700;
+    const Point2d pp((size.width - 1) * 0.5, (size.height - 1) * 0.5);
+    const Matx33d K(f, 0, pp.x, 0, f, pp.y, 0, 0, 1);
+    const Matx33d R = rotAxis(Vec3d(0, 1, 0), 35) * rotAxis(Vec3d(1, 0, 0), -20);
+    const Matx33d Rb = rotAxis(Vec3d(0, 0, 1), 0.8) * R;  // the biased segments' frame
+    RNG rng(5);
+    std::vector<Vec4f> segs;
+    std::vector<int> passes;
+    auto add = [&](const Matx33d& Rf, int axis, int m) {
+        const Vec3d v = K * Vec3d(Rf(0, axis), Rf(1, axis), Rf(2, axis));
+        const Point2d mid(rng.uniform(150.0, 850.0), rng.uniform(120.0, 630.0));
+        Vec2d d = std::abs(v[2]) > 1e-9 ? Vec2d(v[0] / v[2] - mid.x, v[1] / v[2] - mid.y)
+                                        : Vec2d(v[0], v[1]);
+        d = normalize(d) * 100.0;
+        segs.emplace_back((float)(mid.x - d[0]), (float)(mid.y - d[1]), (float)(mid.x + d[0]),
+                          (float)(mid.y + d[1]));
+        passes.push_back(m);
+    };
+    for (int k = 0; k < 10; ++k)
+        for (int a = 0; a < 3; ++a)
+            add(R, a, 3);
+    for (int k = 0; k < 10; ++k)
+        add(Rb, 0, 1);
+    auto dirErr = [&](const Matx33d& Ro) {
+        double worst = 0;
+        for (int a = 0; a < 3; ++a) {
+            const double c = std::abs(R(0, a) * Ro(0, a) + R(1, a) * Ro(1, a) + R(2, a) * Ro(2, a));
+            worst = std::max(worst, std::acos(std::min(1.0, c)) * 180 / CV_PI);
+        }
+        return worst;
+    };
+    VanishingPointCalibrator::Params p;
+    p.pass_weight = 0;
+    Matx33d R0, R1, R2, R3;
+    const double f0 = cv::vbme::detail::refineManhattanFrameFrom(segs, size, p, f, R, nullptr,
+                                                                 nullptr, &R0, &passes);
+    p.pass_weight = 3;
+    const double f1 = cv::vbme::detail::refineManhattanFrameFrom(segs, size, p, f, R, nullptr,
+                                                                 nullptr, &R1, &passes);
+    const double f2 =
+        cv::vbme::detail::refineManhattanFrameFrom(segs, size, p, f, R, nullptr, nullptr, &R2);
+    const std::vector<int> ones(segs.size(), 1);
+    const double f3 = cv::vbme::detail::refineManhattanFrameFrom(segs, size, p, f, R, nullptr,
+                                                                 nullptr, &R3, &ones);
+    const double e0 = dirErr(R0), e1 = dirErr(R1);
+    std::printf("pass weight 0: direction error %.3f deg, focal %+.2f %%; 3: %.3f deg, %+.2f %%\n",
+                e0, 100 * (f0 / f - 1), e1, 100 * (f1 / f - 1));
+    EXPECT_GT(e0, 0.1);  // the biased segments do pull the unweighted refinement
+    EXPECT_LT(e1, 0.5 * e0);
+    EXPECT_LT(std::abs(f1 / f - 1), std::abs(f0 / f - 1) + 1e-4);
+    EXPECT_EQ(f2, f0);
+    EXPECT_EQ(f3, f0);
+    EXPECT_EQ(dirErr(R2), e0);
+    EXPECT_EQ(dirErr(R3), e0);
+}
+
+// The passes a merged segment carries: a long sharp edge is found by all three LSD passes and
+// merged into one segment (m = 3); every count is 0..3, one per segment, in both sets.
+TEST(CalibDetect, MergedSegmentsCountTheLsdPassesThatFoundThem) {
+    Mat img(480, 640, CV_8UC1, Scalar(60));
+    rectangle(img, Rect(120, 100, 400, 280), Scalar(200), FILLED);
+    VanishingPointCalibrator::Params p;
+    const cv::vbme::detail::MergedSegments ms(img, p);
+    std::vector<int> pl, pf;
+    const std::vector<Vec4f> sl = ms.lsd(&pl), sf = ms.withFld(&pf);
+    ASSERT_EQ(pl.size(), sl.size());
+    ASSERT_FALSE(sl.empty());
+    EXPECT_EQ(ms.lsd(), sl);  // the counts change nothing else
+    for (int m : pl) {
+        EXPECT_GE(m, 1);  // the LSD set has no FLD pieces
+        EXPECT_LE(m, 3);
+    }
+    EXPECT_EQ(pl[0], 3) << "the longest segment, a rectangle side";
+    ASSERT_EQ(pf.size(), sf.size());
+    for (int m : pf) {
+        EXPECT_GE(m, 0);
+        EXPECT_LE(m, 3);
+    }
 }

@@ -670,8 +670,23 @@ Results computeResults(const std::string& data_dir) {
                 og.ambiguous = props[0].ambiguous;
                 double sig = 0;
                 Matx33d Rf;
+                // The passes that found each of the answer's segments (Params::pass_weight):
+                // its segments are the LSD set or the LSD + FLD set.
+                std::vector<int> passes;
+                {
+                    const cv::vbme::detail::MergedSegments ms(cv::vbme::detail::toGray8(img), pg);
+                    std::vector<int> pl, pf;
+                    const auto& sa = props[0].calibration.segments;
+                    if (ms.lsd(&pl) == sa)
+                        passes = pl;
+                    else if (ms.withFld(&pf) == sa)
+                        passes = pf;
+                    else
+                        ADD_FAILURE() << t.name << ": the answer's segments are neither set";
+                }
                 const double f = cv::vbme::detail::refineManhattanFrameFrom(
-                    props[0].calibration.segments, img.size(), pg, t.f, t.R, &sig, nullptr, &Rf);
+                    props[0].calibration.segments, img.size(), pg, t.f, t.R, &sig, nullptr, &Rf,
+                    &passes);
                 r.truth_drift.push_back(f / t.f - 1);
                 r.truth_sigma.push_back(sig);
                 {

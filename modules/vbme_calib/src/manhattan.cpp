@@ -47,6 +47,7 @@ namespace {
 
 struct Piece {
     Vec2d p, q;
+    int mask = 0;  // the passes merged into it: bit k for LSD pass k, bit 3 for FLD
     double len() const { return norm(q - p); }
 };
 
@@ -88,6 +89,7 @@ std::vector<Piece> mergeCollinear(std::vector<Piece> s) {
                 }
                 s[i].p = c + a * d;
                 s[i].q = c + b * d;
+                s[i].mask |= s[j].mask;
                 alive[j] = 0;
                 merged = true;
                 break;
@@ -196,6 +198,7 @@ MergedSegments::MergedSegments(const Mat& gray, const VanishingPointCalibrator::
         std::vector<Vec4f> r;
         createLineSegmentDetector(LSD_REFINE_STD, scales[k])->detect(src, r);
         raw_.insert(raw_.end(), r.begin(), r.end());
+        raw_mask_.insert(raw_mask_.end(), r.size(), 1 << k);
     }
     const double diag = std::hypot(gray.cols, gray.rows);
     minlen_ = p.min_segment_length > 0 ? p.min_segment_length : 0.03 * diag;
@@ -206,11 +209,14 @@ MergedSegments::MergedSegments(const Mat& gray, const VanishingPointCalibrator::
     Sobel(gf, gy_, CV_32F, 0, 1, 3);
 }
 
-std::vector<Vec4f> MergedSegments::finish(const std::vector<Vec4f>& raw, bool merge_again) const {
+std::vector<Vec4f> MergedSegments::finish(const std::vector<Vec4f>& raw,
+                                          const std::vector<int>& raw_mask, bool merge_again,
+                                          std::vector<int>* passes) const {
     // Pieces shorter than a third of the threshold are texture; longer ones may join up.
     std::vector<Piece> pieces;
-    for (const auto& s : raw) {
-        Piece pc{Vec2d(s[0], s[1]), Vec2d(s[2], s[3])};
+    for (size_t i = 0; i < raw.size(); ++i) {
+        const Vec4f& s = raw[i];
+        Piece pc{Vec2d(s[0], s[1]), Vec2d(s[2], s[3]), raw_mask[i]};
         if (pc.len() >= std::max(6.0, minlen_ / 3)) pieces.push_back(pc);
     }
     pieces = mergeCollinear(pieces);
@@ -227,22 +233,36 @@ std::vector<Vec4f> MergedSegments::finish(const std::vector<Vec4f>& raw, bool me
         refitted_.emplace(key, std::array<double, 4>{pc.p[0], pc.p[1], pc.q[0], pc.q[1]});
     }
     if (merge_again) pieces = mergeCollinear(pieces);
-    std::vector<Vec4f> out;
+    std::vector<std::pair<Vec4f, int>> out;
     for (const auto& pc : pieces)
-        if (pc.len() >= minlen_)
-            out.emplace_back((float)pc.p[0], (float)pc.p[1], (float)pc.q[0], (float)pc.q[1]);
-    std::stable_sort(out.begin(), out.end(), [](const Vec4f& a, const Vec4f& b) {
-        return std::hypot(a[2] - a[0], a[3] - a[1]) > std::hypot(b[2] - b[0], b[3] - b[1]);
-    });
+        if (pc.len() >= minlen_) {
+            // LSD passes only (bits 0–2). FLD runs on the quarter pass's σ = 2 copy, so it is not
+            // an independent sighting; counting it as a fourth pass was measured worse (AA@3/5/10
+            // 82.6 / 86.8 / 90.2 at a = 1, doc/vbme_calib.md).
+            const int m = ((pc.mask >> 0) & 1) + ((pc.mask >> 1) & 1) + ((pc.mask >> 2) & 1);
+            out.emplace_back(Vec4f((float)pc.p[0], (float)pc.p[1], (float)pc.q[0], (float)pc.q[1]),
+                             m);
+        }
+    std::stable_sort(
+        out.begin(), out.end(), [](const std::pair<Vec4f, int>& x, const std::pair<Vec4f, int>& y) {
+            const Vec4f &a = x.first, &b = y.first;
+            return std::hypot(a[2] - a[0], a[3] - a[1]) > std::hypot(b[2] - b[0], b[3] - b[1]);
+        });
     if ((int)out.size() > max_segments_) out.resize(max_segments_);
-    return out;
+    std::vector<Vec4f> segs(out.size());
+    if (passes) passes->resize(out.size());
+    for (size_t i = 0; i < out.size(); ++i) {
+        segs[i] = out[i].first;
+        if (passes) (*passes)[i] = out[i].second;
+    }
+    return segs;
 }
 
-std::vector<Vec4f> MergedSegments::lsd() const {
-    return finish(raw_, false);
+std::vector<Vec4f> MergedSegments::lsd(std::vector<int>* passes) const {
+    return finish(raw_, raw_mask_, false, passes);
 }
 
-std::vector<Vec4f> MergedSegments::withFld() const {
+std::vector<Vec4f> MergedSegments::withFld(std::vector<int>* passes) const {
 #ifdef VBME_HAVE_XIMGPROC
     // FastLineDetector (Canny edges, then straight runs of edge pixels) on the σ = 2 copy of
     // LSD's third pass, at full resolution: it follows long faint edges LSD's gradient test
@@ -253,8 +273,11 @@ std::vector<Vec4f> MergedSegments::withFld() const {
     ximgproc::createFastLineDetector(10, 1.414213562f, 20, 40, 3, false)->detect(blurred2_, r);
     std::vector<Vec4f> rw = raw_;
     rw.insert(rw.end(), r.begin(), r.end());
-    return finish(rw, true);
+    std::vector<int> mask = raw_mask_;
+    mask.insert(mask.end(), r.size(), 1 << 3);
+    return finish(rw, mask, true, passes);
 #else
+    if (passes) passes->clear();
     return {};
 #endif
 }
@@ -275,6 +298,7 @@ struct Seg {
     double len = 0;  // length in pixels
     double thr = 0;  // sine of the inlier angle
     double w = 0;    // weight (length share)
+    double q = 1;    // factor on its residual in the refinement (Params::pass_weight)
 };
 
 /** Undistorts a normalised point: x_d = x_u (1 + κ |x_u|²) solved for x_u. */
@@ -554,36 +578,45 @@ void refineFrame(std::vector<Seg>& segs, Frame& fr, const VanishingPointCalibrat
     for (const auto& s : segs)
         mean_len += s.len;
     mean_len /= std::max<size_t>(1, segs.size());
+    bool weighted = false;  // Params::pass_weight (makeSegs)
+    for (const auto& s : segs)
+        weighted = weighted || s.q != 1;
     const int rounds = 3;
     for (int round = 0; round < rounds; ++round) {
         setKappa(segs, fr.kappa);
         std::vector<int> labels;
         scoreFrame(segs, fr, &labels, 1.5, true);
         double rot[3] = {0, 0, 0}, logF = std::log(fr.F), kappa = fr.kappa;
+        // The residual blocks; with_q: each segment's times its pass factor s.q.
+        auto build = [&](ceres::Problem& problem, bool with_q) {
+            int nres = 0;
+            for (size_t i = 0; i < segs.size(); ++i) {
+                if (labels[i] < 0) continue;
+                const Seg& s = segs[i];
+                auto* c = new SegmentCost{
+                    s.a[0],
+                    s.a[1],
+                    s.b[0],
+                    s.b[1],
+                    W * std::sqrt(s.len / mean_len) * (with_q ? s.q : 1.0),
+                    Vec3d(fr.D(0, labels[i]), fr.D(1, labels[i]), fr.D(2, labels[i]))};
+                problem.AddResidualBlock(
+                    new ceres::AutoDiffCostFunction<SegmentCost, 1, 3, 1, 1>(c),
+                    new ceres::CauchyLoss(1.0), rot, &logF, &kappa);
+                ++nres;
+            }
+            if (p.focal > 0) problem.SetParameterBlockConstant(&logF);
+            if (!est_kappa) problem.SetParameterBlockConstant(&kappa);
+            if (p.focal <= 0 && p.focal_prior > 0)
+                problem.AddResidualBlock(
+                    new ceres::AutoDiffCostFunction<FocalPriorCost, 1, 1>(new FocalPriorCost{
+                        std::log(p.focal_prior / W), 1.0 / std::max(1e-3, p.focal_prior_sigma)}),
+                    nullptr, &logF);
+            return nres;
+        };
         ceres::Problem problem;
-        int nres = 0;
-        for (size_t i = 0; i < segs.size(); ++i) {
-            if (labels[i] < 0) continue;
-            const Seg& s = segs[i];
-            auto* c =
-                new SegmentCost{s.a[0],
-                                s.a[1],
-                                s.b[0],
-                                s.b[1],
-                                W * std::sqrt(s.len / mean_len),
-                                Vec3d(fr.D(0, labels[i]), fr.D(1, labels[i]), fr.D(2, labels[i]))};
-            problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SegmentCost, 1, 3, 1, 1>(c),
-                                     new ceres::CauchyLoss(1.0), rot, &logF, &kappa);
-            ++nres;
-        }
+        const int nres = build(problem, true);
         if (nres < 5) return;
-        if (p.focal > 0) problem.SetParameterBlockConstant(&logF);
-        if (!est_kappa) problem.SetParameterBlockConstant(&kappa);
-        if (p.focal <= 0 && p.focal_prior > 0)
-            problem.AddResidualBlock(
-                new ceres::AutoDiffCostFunction<FocalPriorCost, 1, 1>(new FocalPriorCost{
-                    std::log(p.focal_prior / W), 1.0 / std::max(1e-3, p.focal_prior_sigma)}),
-                nullptr, &logF);
         ceres::Solver::Options opt;
         opt.linear_solver_type = ceres::DENSE_QR;
         opt.max_num_iterations = 30;
@@ -600,7 +633,15 @@ void refineFrame(std::vector<Seg>& segs, Frame& fr, const VanishingPointCalibrat
             double cost = 0;
             std::vector<double> res;
             ceres::CRSMatrix J;
-            problem.Evaluate(eo, &cost, &res, nullptr, &J);
+            // With pass weights, from the unweighted residuals at the weighted optimum: the
+            // weights say which segments are less biased, not that the data are more precise
+            // (a weighted covariance shrank σ by up to 1.4× where the drift did not fall).
+            if (weighted) {
+                ceres::Problem plain;
+                build(plain, false);
+                plain.Evaluate(eo, &cost, &res, nullptr, &J);
+            } else
+                problem.Evaluate(eo, &cost, &res, nullptr, &J);
             const int np = J.num_cols;
             Mat JtJ = Mat::zeros(np, np, CV_64F);
             for (int r = 0; r < J.num_rows; ++r)
@@ -626,7 +667,8 @@ void refineFrame(std::vector<Seg>& segs, Frame& fr, const VanishingPointCalibrat
 /** Segments (pixels) in normalised coordinates around @p pp, with their inlier angles and
 length weights. */
 std::vector<Seg> makeSegs(const std::vector<Vec4f>& px, const Point2d& pp, double W,
-                          const VanishingPointCalibrator::Params& p) {
+                          const VanishingPointCalibrator::Params& p,
+                          const std::vector<int>* passes = nullptr) {
     std::vector<Seg> segs(px.size());
     double total = 0;
     const double thr_max = std::sin(2.0 * p.inlier_angle_deg * CV_PI / 180),
@@ -645,6 +687,23 @@ std::vector<Seg> makeSegs(const std::vector<Vec4f>& px, const Point2d& pp, doubl
     }
     for (auto& s : segs)
         s.w /= total;
+    // Params::pass_weight: the refinement's weight 1 + a (m − 1) of a segment m LSD passes
+    // found (an FLD-only segment counts as one), divided by its mean over the segments so
+    // that the weights are relative: the Cauchy loss's scale and a focal prior's pull
+    // against the segments stay as without them. s.q multiplies the residual (√ of the weight).
+    const double a = p.pass_weight;
+    if (a > 0 && passes && passes->size() == segs.size()) {
+        double mean_f = 0;
+        for (size_t i = 0; i < segs.size(); ++i)
+            mean_f += 1 + a * (std::max(1, (*passes)[i]) - 1);
+        mean_f /= std::max<size_t>(1, segs.size());
+        bool all_one = true;
+        for (int m : *passes)
+            all_one = all_one && m <= 1;
+        if (!all_one)
+            for (size_t i = 0; i < segs.size(); ++i)
+                segs[i].q = std::sqrt((1 + a * (std::max(1, (*passes)[i]) - 1)) / mean_f);
+    }
     return segs;
 }
 
@@ -747,7 +806,8 @@ double supportSpread(const FrameCalibration& c, std::string* why) {
 std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Size size,
                                                const VanishingPointCalibrator::Params& p,
                                                int max_proposals, const Mat& gray,
-                                               const Edgels* shared_edgels) {
+                                               const Edgels* shared_edgels,
+                                               const std::vector<int>* passes) {
     const int n = (int)px.size();
     if (n < 6)
         CV_Error(Error::StsError,
@@ -759,7 +819,7 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Siz
     const Point2d pp = p.principal_point.x >= 0 && p.principal_point.y >= 0
                            ? p.principal_point
                            : Point2d((size.width - 1) * 0.5, (size.height - 1) * 0.5);
-    std::vector<Seg> segs = makeSegs(px, pp, W, p);
+    std::vector<Seg> segs = makeSegs(px, pp, W, p, passes);
     // Edge pixels (Params::edgel_scoring; manhattan_edgels.hpp): at most 3000, σ 1.5°, ε 0.4.
     // Not with distortion estimation (the edgels are not undistorted).
     const bool use_edgels = p.edgel_scoring && !gray.empty() && !p.estimate_distortion;
@@ -1122,7 +1182,8 @@ std::vector<ManhattanProposal> proposeInRankOrder(const Mat& gray,
                                                   const VanishingPointCalibrator::Params& p,
                                                   int max_proposals) {
     const MergedSegments ms(gray, p);
-    const std::vector<Vec4f> segs = ms.lsd();
+    std::vector<int> passes, passes_fld;
+    const std::vector<Vec4f> segs = ms.lsd(&passes);
     // The search is chaotic in its segments: a few segments of the weakest direction decide
     // which frame wins, so two slightly different segment sets can give different frames.
     // The FLD pass is a second opinion, asked for when the LSD pass's first proposal is not
@@ -1144,7 +1205,7 @@ std::vector<ManhattanProposal> proposeInRankOrder(const Mat& gray,
     }
     const Edgels* shared = use_edgels ? &edgels : nullptr;
     try {
-        a = searchManhattan(segs, gray.size(), p, max_proposals, gray, shared);
+        a = searchManhattan(segs, gray.size(), p, max_proposals, gray, shared, &passes);
     } catch (const cv::Exception& e) {
         err = e.err;
     }
@@ -1152,10 +1213,10 @@ std::vector<ManhattanProposal> proposeInRankOrder(const Mat& gray,
         if (a.empty()) CV_Error(Error::StsError, err);
         return a;
     }
-    const std::vector<Vec4f> segs_fld = ms.withFld();
+    const std::vector<Vec4f> segs_fld = ms.withFld(&passes_fld);
     if (!segs_fld.empty()) {
         try {
-            b = searchManhattan(segs_fld, gray.size(), p, max_proposals, gray, shared);
+            b = searchManhattan(segs_fld, gray.size(), p, max_proposals, gray, shared, &passes_fld);
         } catch (const cv::Exception& e) {
             if (err.empty()) err = e.err;
         }
@@ -1224,12 +1285,12 @@ std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
 double refineManhattanFrameFrom(const std::vector<Vec4f>& px, Size size,
                                 const VanishingPointCalibrator::Params& p, double focal,
                                 const Matx33d& R, double* focal_rel_sigma, double* score,
-                                Matx33d* R_out) {
+                                Matx33d* R_out, const std::vector<int>* passes) {
     const double W = std::max(size.width, size.height);
     const Point2d pp = p.principal_point.x >= 0 && p.principal_point.y >= 0
                            ? p.principal_point
                            : Point2d((size.width - 1) * 0.5, (size.height - 1) * 0.5);
-    std::vector<Seg> segs = makeSegs(px, pp, W, p);
+    std::vector<Seg> segs = makeSegs(px, pp, W, p, passes);
     Frame fr;
     fr.F = focal / W;
     fr.D = R;

@@ -22,16 +22,21 @@ Mat toGray8(InputArray image);
 /** The GLOBAL search's segments of one image: the LSD passes and the gradients are computed
 once; lsd() merges and refits the LSD pieces, withFld() the same with FastLineDetector's
 pieces added (empty without OpenCV's ximgproc). Both: at least the minimum length, longest
-first, at most params.max_segments. */
+first, at most params.max_segments. @p passes (if given) receives, for each returned segment,
+the number of the three LSD passes (full, half, quarter resolution) whose pieces were merged
+into it: 1–3, or 0 for a segment of FastLineDetector pieces alone (an FLD piece merged into
+LSD pieces adds nothing). Params::pass_weight weights the refinement by it. */
 class MergedSegments {
 public:
     MergedSegments(const Mat& gray, const VanishingPointCalibrator::Params& params);
-    std::vector<Vec4f> lsd() const;
-    std::vector<Vec4f> withFld() const;
+    std::vector<Vec4f> lsd(std::vector<int>* passes = nullptr) const;
+    std::vector<Vec4f> withFld(std::vector<int>* passes = nullptr) const;
 
 private:
-    std::vector<Vec4f> finish(const std::vector<Vec4f>& raw, bool merge_again) const;
+    std::vector<Vec4f> finish(const std::vector<Vec4f>& raw, const std::vector<int>& raw_mask,
+                              bool merge_again, std::vector<int>* passes) const;
     std::vector<Vec4f> raw_;
+    std::vector<int> raw_mask_;  // per raw_ piece: bit k for LSD pass k
     Mat blurred2_, gx_, gy_;
     /** Refitted pieces by their endpoints before the refit (the refit depends on nothing
     else): a merged piece both sets have is refitted once. */
@@ -58,11 +63,14 @@ std::vector<ManhattanProposal> proposeManhattan(const Mat& gray,
 reason when none is plausible. @p gray (8-bit, the image the segments come from) is used when
 params.edgel_scoring is set (manhattan_edgels.hpp); empty: segments only. @p shared_edgels
 (if given) are @p gray's edge pixels, extracted once by the caller (extractEdgels with at most
-3000, principal point as in @p params) for several searches on one image. */
+3000, principal point as in @p params) for several searches on one image. @p passes (if
+given, one per segment; MergedSegments) weights each segment's residual in the refinement
+(Params::pass_weight); without it every segment counts as found by one pass. */
 std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& segments, Size size,
                                                const VanishingPointCalibrator::Params& params,
                                                int max_proposals, const Mat& gray = Mat(),
-                                               const Edgels* shared_edgels = nullptr);
+                                               const Edgels* shared_edgels = nullptr,
+                                               const std::vector<int>* passes = nullptr);
 
 /** How far a frame's support is the room's rather than one object's or one edge's, in [0, 1]: a
 factor of the confidence (proposeManhattan). The search's own confidence counts the second
@@ -82,11 +90,13 @@ columns the world axes in camera coordinates), principal point as in @p params. 
 refined focal length; @p focal_rel_sigma (if given) its relative standard deviation and
 @p score (if given) the refined frame's consensus score and @p R_out (if given) the refined
 rotation (cam_from_world; its columns may be permuted or negated as @p R's). White-box: lets tests
-start the refinement from the true frame to tell a biased objective from a badly chosen start. */
+start the refinement from the true frame to tell a biased objective from a badly chosen start.
+@p passes as for searchManhattan. */
 double refineManhattanFrameFrom(const std::vector<Vec4f>& segments, Size size,
                                 const VanishingPointCalibrator::Params& params, double focal,
                                 const Matx33d& R, double* focal_rel_sigma = nullptr,
-                                double* score = nullptr, Matx33d* R_out = nullptr);
+                                double* score = nullptr, Matx33d* R_out = nullptr,
+                                const std::vector<int>* passes = nullptr);
 
 }  // namespace detail
 }  // namespace vbme

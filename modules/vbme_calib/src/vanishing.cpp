@@ -387,6 +387,7 @@ void VanishingPointCalibrator::Params::read(const FileNode& node) {
     in("fld_pass", fld_pass);
     in("fld_pass_below_confidence", fld_pass_below_confidence);
     in("edgel_scoring", edgel_scoring);
+    in("pass_weight", pass_weight);
     in.finish();
     check();
 }
@@ -410,6 +411,8 @@ void VanishingPointCalibrator::Params::check() const {
     checkParam(focal_prior_sigma > 0, w, "focal_prior_sigma", focal_prior_sigma, "> 0");
     checkParam(fld_pass_below_confidence >= 0 && std::isfinite(fld_pass_below_confidence), w,
                "fld_pass_below_confidence", fld_pass_below_confidence, ">= 0 (above 1: always)");
+    checkParam(pass_weight >= 0 && std::isfinite(pass_weight), w, "pass_weight", pass_weight,
+               ">= 0 (0: every segment alike)");
 }
 
 void VanishingPointCalibrator::Params::write(FileStorage& fs) const {
@@ -426,6 +429,7 @@ void VanishingPointCalibrator::Params::write(FileStorage& fs) const {
     fs << "estimate_distortion" << (int)estimate_distortion;
     fs << "fld_pass" << (int)fld_pass << "fld_pass_below_confidence" << fld_pass_below_confidence;
     fs << "edgel_scoring" << (int)edgel_scoring;
+    fs << "pass_weight" << pass_weight;
 }
 
 Point2d undistortPointK1(const Point2d& p, double f, const Point2d& c, double k1) {

@@ -183,6 +183,17 @@ public:
         in doc/vbme_calib.md, "Edge pixels (session 9)" and "Ambiguity and the edge pixels on
         by default (session 10)". */
         bool edgel_scoring = true;
+        /** @brief detection (GLOBAL): weight of the segments several LSD passes found in the
+        refinement. A segment that m of the three LSD passes (full, half, quarter resolution)
+        found gets the weight 1 + a (m − 1), a this value (a segment of FastLineDetector pieces
+        alone counts as m = 1), divided by the weights' mean over the image's segments; the
+        votes, the search and the inlier angles are unchanged, and the focal length's σ is
+        computed from the unweighted residuals. Sharp edges every pass finds are nearly exact,
+        soft edges one coarse pass finds alone carry most of the bias (doc/vbme_calib.md, "Which
+        segments carry the bias"). 0: every segment alike. Not on by default: a = 0.5 improves
+        the committed and the held-out rooms but fails one oracle (doc/vbme_calib.md, "Pass
+        weight in the library"). */
+        double pass_weight = 0;
 
         /** @brief Reads the fields present in @p node (others keep their values); an
         unknown key or a value check() refuses is an error. */
