@@ -8,7 +8,8 @@
 // distorted renders; the same figures over the images whose three directions a labeller could
 // mark (labels.csv, from the scenes' geometry). The set is processed once per build, by the
 // first CalibRooms process (see results()). VBME_CALIB_ROOMS_DUMP=dir writes an annotated
-// overlay per image (and always recomputes).
+// overlay per image (and always recomputes). VBME_CALIB_ROOMS_DATA=dir measures another set
+// made by the same script (truth.csv, labels.csv) instead of test/data/calib_rooms.
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
@@ -50,8 +51,22 @@ struct Truth {
     Matx33d R;
 };
 
-std::vector<Truth> readTruth() {
-    const std::string dir = std::string(VBME_TEST_DATA_DIR) + "/calib_rooms/";
+/** The committed set, test/data/calib_rooms. */
+std::string defaultRoomsDir() {
+    return std::string(VBME_TEST_DATA_DIR) + "/calib_rooms";
+}
+
+/** The set the CalibRooms tests measure: test/data/calib_rooms, or the folder named by
+VBME_CALIB_ROOMS_DATA (another set made by scripts/blender/calib_rooms.py, with its truth.csv and
+labels.csv, e.g. test/data/calib_rooms_b) to see whether the figures hold on other images. The
+assertions were written for the committed set: on another set they are reported, not meant. */
+std::string roomsDir() {
+    const char* e = std::getenv("VBME_CALIB_ROOMS_DATA");
+    return e && *e ? std::string(e) : defaultRoomsDir();
+}
+
+std::vector<Truth> readTruth(const std::string& data_dir) {
+    const std::string dir = data_dir + "/";
     std::ifstream in(dir + "truth.csv");
     std::vector<Truth> out;
     std::string line;
@@ -83,6 +98,7 @@ struct Outcome {
     double dir_err[3] = {90, 90, 90};
     double confidence = 0;
     double proposal_confidence = 0;  // the first proposal's ranked confidence (GLOBAL)
+    bool ambiguous = false;          // the first proposal's flag (GLOBAL)
     double k1 = 0;
     double sigma = 0;
     std::string support;
@@ -371,7 +387,7 @@ struct ResultsWriter {
     void operator()(const char* tag, std::vector<Outcome>& v) {
         s += format("%s %d\n", tag, (int)v.size());
         for (Outcome& o : v) {
-            s += format("%d", (int)o.ok);
+            s += format("%d %d", (int)o.ok, (int)o.ambiguous);
             for (double x : {o.focal_err, o.dir_err[0], o.dir_err[1], o.dir_err[2], o.confidence,
                              o.proposal_confidence, o.k1, o.sigma})
                 num(x);
@@ -442,6 +458,7 @@ struct ResultsReader {
         for (Outcome& o : v) {
             if (!ok) return;
             o.ok = num() != 0;
+            o.ambiguous = num() != 0;
             for (double* x : {&o.focal_err, &o.dir_err[0], &o.dir_err[1], &o.dir_err[2],
                               &o.confidence, &o.proposal_confidence, &o.k1, &o.sigma})
                 *x = num();
@@ -528,16 +545,16 @@ bool parseResults(const std::string& file, const std::string& key, Results* r, s
     return true;
 }
 
-Results computeResults();
+Results computeResults(const std::string& data_dir);
 
 /** Runs computeResults() with stdout captured (the per-image lines, printed and cached). */
-Results computeAndCapture(std::string* log) {
+Results computeAndCapture(const std::string& data_dir, std::string* log) {
     std::fflush(stdout);
     char tmpl[] = "/tmp/vbme_calib_rooms_log_XXXXXX";
     const int fd = mkstemp(tmpl);
     const int saved = fd >= 0 ? dup(1) : -1;
     if (saved >= 0) dup2(fd, 1);
-    Results r = computeResults();
+    Results r = computeResults(data_dir);
     std::fflush(stdout);
     if (saved >= 0) {
         dup2(saved, 1);
@@ -560,20 +577,31 @@ std::string exePath() {
     return ec ? std::string() : p.string();
 }
 
-const Results& results() {
-    static const Results r = [] {
+/** The results of the set in @p data (roomsDir() unless a test names its own set), computed
+once per build and data: the committed set's cache file is the test program's path +
+".calib_rooms_results", another set's has a hash of its folder's path appended. */
+const Results& results(const std::string& data = roomsDir()) {
+    static std::map<std::string, Results> sets;
+    const auto found = sets.find(data);
+    if (found != sets.end()) return found->second;
+    const Results& r = sets[data] = [&data] {
         Results r;
-        for (const auto& t : readTruth())
+        for (const auto& t : readTruth(data))
             (t.k1 == 0 ? r.plain : r.distorted).push_back(t);
         std::string log;
         const std::string exe = exePath();
-        const std::string data = std::string(VBME_TEST_DATA_DIR) + "/calib_rooms";
         if (std::getenv("VBME_CALIB_ROOMS_DUMP") || exe.empty()) {
-            Results c = computeAndCapture(&log);
+            Results c = computeAndCapture(data, &log);
             c.plain = r.plain, c.distorted = r.distorted;
             return c;
         }
-        const std::string path = exe + ".calib_rooms_results";
+        std::string path = exe + ".calib_rooms_results";
+        if (data != defaultRoomsDir()) {
+            std::error_code ec;
+            Hash64 h;
+            h.add(std::filesystem::weakly_canonical(data, ec).string());
+            path += "." + h.hex();
+        }
         const int lock = open((path + ".lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
         if (lock >= 0) flock(lock, LOCK_EX);  // other processes of this build wait here
         const std::string key = resultsKey(data);
@@ -587,15 +615,15 @@ const Results& results() {
                     if (lock >= 0) close(lock);
                     std::fwrite(log.data(), 1, log.size(), stdout);
                     std::printf(
-                        "CalibRooms: the whole set's results read from %s (key %s, "
+                        "CalibRooms: the whole set's results (%s) read from %s (key %s, "
                         "computed by an earlier process of this build)\n",
-                        path.c_str(), key.c_str());
+                        data.c_str(), path.c_str(), key.c_str());
                     return r;
                 }
             }
         }
         const auto t0 = std::chrono::steady_clock::now();
-        Results c = computeAndCapture(&log);
+        Results c = computeAndCapture(data, &log);
         c.plain = r.plain, c.distorted = r.distorted;
         const double secs =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -612,9 +640,9 @@ const Results& results() {
             if (ec) std::remove(tmp.c_str());
         }
         std::printf(
-            "CalibRooms: the whole set computed in this process (%.1f s; cache %s: %s), "
+            "CalibRooms: the whole set (%s) computed in this process (%.1f s; cache %s: %s), "
             "kept in %s for the other tests of this build\n",
-            secs, path.c_str(), why.c_str(), path.c_str());
+            data.c_str(), secs, path.c_str(), why.c_str(), path.c_str());
         if (lock >= 0) close(lock);
         return c;
     }();
@@ -622,10 +650,10 @@ const Results& results() {
 }
 
 /** Every image is processed: both methods, proposals, distortion (the results above). */
-Results computeResults() {
-    return [] {
+Results computeResults(const std::string& data_dir) {
+    return [&data_dir] {
         Results r;
-        for (const auto& t : readTruth())
+        for (const auto& t : readTruth(data_dir))
             (t.k1 == 0 ? r.plain : r.distorted).push_back(t);
         VanishingPointCalibrator::Params pg, pr;
         pr.method = VanishingPointCalibrator::Params::RANSAC;
@@ -639,6 +667,7 @@ Results computeResults() {
                 const auto props = detectManhattanProposals(img, pg, 3);
                 og = evaluate(t, props[0].calibration);
                 og.proposal_confidence = props[0].confidence;
+                og.ambiguous = props[0].ambiguous;
                 double sig = 0;
                 Matx33d Rf;
                 // The passes that found each of the answer's segments (Params::pass_weight):
@@ -787,14 +816,15 @@ Results computeResults() {
             }
             std::printf(
                 "%s: global f err %.2f %% (sigma %.2f %%) dir %.2f/%.2f/%.2f conf %.2f (ranked "
-                "%.2f) "
+                "%.2f%s) "
                 "support %s "
                 "| ransac f err "
                 "%.2f %% dir %.2f/%.2f/%.2f %s\n",
                 t.name.substr(t.name.rfind('/') + 1).c_str(), 100 * og.focal_err, 100 * og.sigma,
                 og.dir_err[0], og.dir_err[1], og.dir_err[2], og.confidence, og.proposal_confidence,
-                og.support.c_str(), 100 * orr.focal_err, orr.dir_err[0], orr.dir_err[1],
-                orr.dir_err[2], (og.error + " " + orr.error).c_str());
+                og.ambiguous ? ", ambiguous" : "", og.support.c_str(), 100 * orr.focal_err,
+                orr.dir_err[0], orr.dir_err[1], orr.dir_err[2],
+                (og.error + " " + orr.error).c_str());
             r.global.push_back(og);
             r.ransac.push_back(orr);
         }
@@ -1201,8 +1231,8 @@ struct Label {
     double len1[3] = {0, 0, 0}, len2[3] = {0, 0, 0};
 };
 
-std::map<std::string, Label> readLabels() {
-    std::ifstream in(std::string(VBME_TEST_DATA_DIR) + "/calib_rooms/labels.csv");
+std::map<std::string, Label> readLabels(const std::string& data_dir = roomsDir()) {
+    std::ifstream in(data_dir + "/labels.csv");
     std::map<std::string, Label> out;
     std::string line;
     std::getline(in, line);  // header
@@ -1280,6 +1310,106 @@ TEST(CalibRooms, LabelledDirectionsSubset) {
     ASSERT_GE(i030, 0);
     EXPECT_FALSE(labels.at("room_030.jpg").labelled);
     EXPECT_FALSE(r.global[i030].ok) << "room_030 answered: f err " << r.global[i030].focal_err;
+}
+
+// A held-out set: test/data/calib_rooms_b, made by the same script with another seed
+// (`calib_rooms.py --count 32 --seed 23 --samples 12`, labels.csv by calib_rooms_labels.py) in
+// session 11, after the defaults were chosen on test/data/calib_rooms; nothing was tuned on it.
+// Its figures are printed beside the committed set's (VBME_CALIB_ROOMS_DATA runs every CalibRooms
+// test on it); asserted are only what the method claims on any such images, not the issue's
+// aims. Measured (session 11): GLOBAL focal median / p75 / p90 2.22 / 31.6 / 100 %, 8 of 26
+// beyond 10 %, 3 refused, AA@3/5/10 64.2 / 69.0 / 73.0; RANSAC 100 / 100 / 100 %, 19 beyond
+// 10 %, 12 refused, AA 24.4 / 28.5 / 33.4. The set has more frames with nothing to measure
+// (9 of 26 not labelled against 7: bare walls, longer lenses, median 38 mm against 30 mm).
+std::string heldOutDir() {
+    return std::string(VBME_TEST_DATA_DIR) + "/calib_rooms_b";
+}
+
+TEST(CalibRoomsHeldOut, GlobalSearchBeatsRansac) {
+    const std::string dir = heldOutDir();
+    const Results& r = results(dir);
+    ASSERT_GE(r.plain.size(), 20u) << dir << "/truth.csv missing or short";
+    const std::map<std::string, Label> labels = readLabels(dir);
+    std::vector<size_t> keep;
+    for (size_t i = 0; i < r.plain.size(); ++i) {
+        const std::string name = r.plain[i].name.substr(r.plain[i].name.rfind('/') + 1);
+        const auto it = labels.find(name);
+        ASSERT_NE(it, labels.end()) << name << " has no row in labels.csv";
+        if (it->second.labelled) keep.push_back(i);
+    }
+    auto subset = [&](const std::vector<Outcome>& v) {
+        std::vector<Outcome> out;
+        for (size_t i : keep)
+            out.push_back(v[i]);
+        return out;
+    };
+    const Summary g = summarise(r.global), o = summarise(r.ransac);
+    std::printf("held-out set, all %d images:\n", (int)r.plain.size());
+    print("global", g, r.plain.size());
+    print("ransac", o, r.plain.size());
+    print("+prior", summarise(r.prior), r.plain.size());
+    std::printf("held-out set, the %d labelled images:\n", (int)keep.size());
+    print("global", summarise(subset(r.global)), keep.size());
+    print("ransac", summarise(subset(r.ransac)), keep.size());
+    print("+prior", summarise(subset(r.prior)), keep.size());
+    EXPECT_LT(g.p50, o.p50);
+    EXPECT_LT(g.p75, o.p75);
+    EXPECT_LT(g.over10, o.over10);
+    EXPECT_LT(g.failed, o.failed);
+    EXPECT_GT(g.aa3, o.aa3);
+    EXPECT_GT(g.aa5, o.aa5);
+    EXPECT_GT(g.aa10, o.aa10);
+}
+
+// On the held-out set: the first proposal's confidence is lower for wrong answers (focal off by
+// 5 % or more, or a direction by 3 deg or more) than for right ones, and the ambiguous flag fires
+// on a larger share of the wrong ones. Measured (session 11): 6 wrong first answers, mean
+// confidence 0.127 against 0.427 for the 17 right ones, but one of them (room_000, a turned box
+// on an overexposed wall, its y axis without a visible line) at 0.564; 2 of the 6 wrong and 1 of
+// the 17 right flagged. Printed, not asserted: whether the refused images are the ones a
+// labeller could not mark either (here all 3 are; on a third set, seed 29, one refused image
+// has the minimum 2/2/2 lines and is labelled).
+TEST(CalibRoomsHeldOut, WrongAnswersScoreLower) {
+    const std::string dir = heldOutDir();
+    const Results& r = results(dir);
+    ASSERT_GE(r.plain.size(), 20u) << dir << "/truth.csv missing or short";
+    const std::map<std::string, Label> labels = readLabels(dir);
+    std::vector<double> right, wrong;
+    int amb_right = 0, amb_wrong = 0;
+    for (size_t i = 0; i < r.plain.size(); ++i) {
+        const std::string name = r.plain[i].name.substr(r.plain[i].name.rfind('/') + 1);
+        const auto it = labels.find(name);
+        ASSERT_NE(it, labels.end()) << name << " has no row in labels.csv";
+        const Outcome& o = r.global[i];
+        const Label& l = it->second;
+        if (!o.ok) {
+            std::printf("refused: %s (%slabelled; lines x/y/z %d/%d/%d)\n", name.c_str(),
+                        l.labelled ? "" : "not ", l.lines[0], l.lines[1], l.lines[2]);
+            continue;
+        }
+        const bool ok =
+            o.focal_err < 0.05 && std::max({o.dir_err[0], o.dir_err[1], o.dir_err[2]}) < 3;
+        (ok ? right : wrong).push_back(o.proposal_confidence);
+        (ok ? amb_right : amb_wrong) += o.ambiguous;
+        if (!ok)
+            std::printf(
+                "wrong first answer: %s (%slabelled): f err %.1f %%, dir %.1f/%.1f/%.1f deg, "
+                "confidence %.3f%s\n",
+                name.c_str(), l.labelled ? "" : "not ", 100 * o.focal_err, o.dir_err[0],
+                o.dir_err[1], o.dir_err[2], o.proposal_confidence,
+                o.ambiguous ? ", ambiguous" : "");
+    }
+    auto mean = [](const std::vector<double>& v) {
+        return v.empty() ? 0.0 : std::accumulate(v.begin(), v.end(), 0.0) / v.size();
+    };
+    std::printf(
+        "held-out first proposals: %d right (mean confidence %.3f), %d wrong (mean %.3f); "
+        "flagged ambiguous: %d of the right, %d of the wrong\n",
+        (int)right.size(), mean(right), (int)wrong.size(), mean(wrong), amb_right, amb_wrong);
+    ASSERT_FALSE(right.empty());
+    ASSERT_FALSE(wrong.empty());
+    EXPECT_LT(mean(wrong), 0.5 * mean(right));
+    EXPECT_GT(double(amb_wrong) / wrong.size(), double(amb_right) / right.size());
 }
 
 }  // namespace
