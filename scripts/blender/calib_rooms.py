@@ -512,6 +512,20 @@ def draw_lens(rng, idx):
         k1 = -rng.uniform(0.4, 1.0) * min(0.25, 0.15 / rd2)
     return distorted, f35, k1, f35 / 36.0 * W
 
+def lens_overscan(f, k1):
+    """How many times wider than 640x480 the render must be (in steps of 0.05, 2 % margin) so
+    that barrel distortion k1 < 0 pulls no pixel of the frame from outside it: the undistorted
+    radius of the image corner over its distorted radius. 1 without barrel distortion."""
+    if k1 >= 0:
+        return 1.0
+    xd, yd = ((W - 1) / 2) / f, ((H - 1) / 2) / f
+    rd = math.hypot(xd, yd)
+    ru = rd
+    for _ in range(50):
+        ru = rd / (1 + k1 * ru * ru)
+    return math.ceil(ru / rd * 1.02 * 20) / 20
+
+
 def main():
     a = parse_args()
     os.makedirs(a["out"], exist_ok=True)
@@ -532,14 +546,7 @@ def main():
             continue
         clear_scene()
         corridor, X, Y, Z = build_scene(rng, idx)
-        overscan = 1.0
-        if k1 < 0:  # undistorted radius of the image corner, in units of the half width
-            xd, yd = ((W - 1) / 2) / f, ((H - 1) / 2) / f
-            rd = math.hypot(xd, yd)
-            ru = rd
-            for _ in range(50):
-                ru = rd / (1 + k1 * ru * ru)
-            overscan = math.ceil(ru / rd * 1.02 * 20) / 20
+        overscan = lens_overscan(f, k1)
         R = place_camera(rng, corridor, X, Y, Z, f35, overscan)
         sw, sh = int(round(W * overscan)) // 2 * 2, int(round(H * overscan)) // 2 * 2
         # keep the focal in pixels exact: the lens scales with the actual width

@@ -227,15 +227,7 @@ def main():
         distorted, f35, k1, f = cr.draw_lens(rng, idx)
         cr.clear_scene()
         corridor, X, Y, Z = cr.build_scene(rng, idx)
-        overscan = 1.0
-        if k1 < 0:
-            xd, yd = ((W - 1) / 2) / f, ((H - 1) / 2) / f
-            rd = math.hypot(xd, yd)
-            ru = rd
-            for _ in range(50):
-                ru = rd / (1 + k1 * ru * ru)
-            overscan = math.ceil(ru / rd * 1.02 * 20) / 20
-        R = cr.place_camera(rng, corridor, X, Y, Z, f35, overscan)
+        R = cr.place_camera(rng, corridor, X, Y, Z, f35, cr.lens_overscan(f, k1))
         dR = max(abs(R[i][j] - float(t[9 + 3 * i + j])) for i in range(3) for j in range(3))
         df = abs(f - float(t[4]))
         dk = abs(k1 - float(t[7]))

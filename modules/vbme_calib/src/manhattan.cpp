@@ -697,12 +697,9 @@ std::vector<Seg> makeSegs(const std::vector<Vec4f>& px, const Point2d& pp, doubl
         for (size_t i = 0; i < segs.size(); ++i)
             mean_f += 1 + a * (std::max(1, (*passes)[i]) - 1);
         mean_f /= std::max<size_t>(1, segs.size());
-        bool all_one = true;
-        for (int m : *passes)
-            all_one = all_one && m <= 1;
-        if (!all_one)
-            for (size_t i = 0; i < segs.size(); ++i)
-                segs[i].q = std::sqrt((1 + a * (std::max(1, (*passes)[i]) - 1)) / mean_f);
+        // (every m = 1: mean 1, every q exactly 1, as without weights)
+        for (size_t i = 0; i < segs.size(); ++i)
+            segs[i].q = std::sqrt((1 + a * (std::max(1, (*passes)[i]) - 1)) / mean_f);
     }
     return segs;
 }
