@@ -35,6 +35,7 @@ VanishingPointCalibrator::Params changedVp() {
     p.fld_pass_below_confidence = 0.8;
     p.edgel_scoring = false;
     p.pass_weight = 0.75;
+    p.upright_prior = 4;
     return p;
 }
 

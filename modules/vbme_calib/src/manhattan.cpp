@@ -765,6 +765,18 @@ double lengthConcentration(const std::vector<Vec4f>& px, const std::vector<int>&
 
 }  // namespace
 
+double uprightPrior(const Matx33d& R, double sigma_deg) {
+    if (!(sigma_deg > 0)) return 1;
+    // World up in camera coordinates (camera y down, z forward): R's third column.
+    const double ux = R(0, 2), uy = R(1, 2), uz = R(2, 2);
+    const double deg = 180 / CV_PI;
+    const double pitch = std::asin(std::max(-1.0, std::min(1.0, uz))) * deg;
+    const double roll = std::atan2(ux, -uy) * deg;
+    const double er = std::max(0.0, std::abs(roll) - 15) / sigma_deg,
+                 ep = std::max(0.0, std::abs(pitch) - 45) / sigma_deg;
+    return std::exp(-0.5 * (er * er + ep * ep));
+}
+
 double supportSpread(const FrameCalibration& c, std::string* why) {
     const std::vector<Vec4f>& px = c.segments;
     if (c.labels.size() != px.size()) return 1;
@@ -1102,7 +1114,8 @@ std::vector<ManhattanProposal> searchManhattan(const std::vector<Vec4f>& px, Siz
         best_score = std::max(best_score, m.score);
     std::vector<double> q(out.size());
     for (size_t k = 0; k < out.size(); ++k)
-        q[k] = out[k].calibration.confidence * std::pow(out[k].score / best_score, gamma);
+        q[k] = out[k].calibration.confidence * std::pow(out[k].score / best_score, gamma) *
+               uprightPrior(out[k].calibration.R, p.upright_prior);
     std::vector<size_t> order(out.size());
     std::iota(order.begin(), order.end(), 0);
     std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return q[a] > q[b]; });

@@ -84,6 +84,12 @@ width and height goes from half to all of it. Directions ranked by segment count
 search. @p why (if given) says which applied. */
 double supportSpread(const FrameCalibration& c, std::string* why = nullptr);
 
+/** Params::upright_prior's factor for a frame of rotation @p R (cam_from_world, the world
+vertical its third column): 1 within |roll| ≤ 15° and |pitch| ≤ 45°, beyond that
+exp(−½ (excess / σ)²) per angle, σ = @p sigma_deg; 1 when @p sigma_deg is 0 (off). Pitch is
+the viewing direction's elevation (positive up), roll the image's turn about it. */
+double uprightPrior(const Matx33d& R, double sigma_deg);
+
 /** The GLOBAL search's refinement (relabelling + robust joint refinement of focal length and
 rotation, no distortion) started from a given frame: @p focal (px) and @p R (cam_from_world,
 columns the world axes in camera coordinates), principal point as in @p params. Returns the

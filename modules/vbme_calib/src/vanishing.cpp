@@ -388,6 +388,7 @@ void VanishingPointCalibrator::Params::read(const FileNode& node) {
     in("fld_pass_below_confidence", fld_pass_below_confidence);
     in("edgel_scoring", edgel_scoring);
     in("pass_weight", pass_weight);
+    in("upright_prior", upright_prior);
     in.finish();
     check();
 }
@@ -413,6 +414,8 @@ void VanishingPointCalibrator::Params::check() const {
                "fld_pass_below_confidence", fld_pass_below_confidence, ">= 0 (above 1: always)");
     checkParam(pass_weight >= 0 && std::isfinite(pass_weight), w, "pass_weight", pass_weight,
                ">= 0 (0: every segment alike)");
+    checkParam(upright_prior >= 0 && std::isfinite(upright_prior), w, "upright_prior",
+               upright_prior, ">= 0 degrees (0: off)");
 }
 
 void VanishingPointCalibrator::Params::write(FileStorage& fs) const {
@@ -430,6 +433,7 @@ void VanishingPointCalibrator::Params::write(FileStorage& fs) const {
     fs << "fld_pass" << (int)fld_pass << "fld_pass_below_confidence" << fld_pass_below_confidence;
     fs << "edgel_scoring" << (int)edgel_scoring;
     fs << "pass_weight" << pass_weight;
+    fs << "upright_prior" << upright_prior;
 }
 
 Point2d undistortPointK1(const Point2d& p, double f, const Point2d& c, double k1) {

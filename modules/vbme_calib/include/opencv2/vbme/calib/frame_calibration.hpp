@@ -194,6 +194,15 @@ public:
         the committed and the held-out rooms but fails one oracle (doc/vbme_calib.md, "Pass
         weight in the library"). */
         double pass_weight = 0;
+        /** @brief detection (GLOBAL): a prior on how people hold cameras, as a factor on each
+        frame's ranking product (`calibration.confidence × (score / best score)⁸`, so on the
+        ranking and the confidences' shares). A frame's roll and pitch are those its rotation
+        implies (world vertical = the direction nearest the camera's y axis); within |roll| ≤
+        15° and |pitch| ≤ 45° (cameras people hold) the factor is 1, beyond it falls as
+        exp(−½ (excess / σ)²) per angle, σ this value in degrees. 0: off (every frame alike).
+        Not on by default: the wrong answers on the Blender rooms are not tilted
+        (doc/vbme_calib.md, "An upright-camera prior"). */
+        double upright_prior = 0;
 
         /** @brief Reads the fields present in @p node (others keep their values); an
         unknown key or a value check() refuses is an error. */
