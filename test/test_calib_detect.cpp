@@ -456,3 +456,26 @@ TEST(CalibDetect, UprightPriorPicksTheUprightFrameOfTwoEquallySupported) {
         EXPECT_NEAR(r[0].calibration.focal(), f, 0.01 * f);
     }
 }
+
+// On seed 29's room_023 (test/data/calib_rooms_c) with the FastLineDetector pass forced, one
+// refinement of that pass ran log f away (to about 380) and Ceres printed an error: the log
+// focal length was unbounded. It is now kept within [log 0.05, log 50] of the image width (far
+// outside any frame the search keeps, 0.3-6x), and the search prints nothing.
+TEST(CalibDetect, RefinementKeepsTheFocalLengthBounded) {
+    const Mat img = imread(std::string(VBME_TEST_DATA_DIR) + "/calib_rooms_c/room_023.jpg");
+    ASSERT_FALSE(img.empty());
+    VanishingPointCalibrator::Params p;
+    p.fld_pass_below_confidence = 2;  // always run the FLD pass
+    testing::internal::CaptureStderr();
+    std::vector<ManhattanProposal> props;
+    EXPECT_NO_THROW(props = detectManhattanProposals(img, p, 5));
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_EQ(err.find("Ceres"), std::string::npos) << err;
+    EXPECT_EQ(err.find("nan"), std::string::npos) << err;
+    ASSERT_FALSE(props.empty());
+    for (const auto& q : props) {
+        EXPECT_TRUE(std::isfinite(q.calibration.focal()));
+        EXPECT_GT(q.calibration.focal(), 0.3 * img.cols);
+        EXPECT_LT(q.calibration.focal(), 6.0 * img.cols);
+    }
+}

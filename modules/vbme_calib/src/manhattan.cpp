@@ -571,6 +571,9 @@ struct FocalPriorCost {
     }
 };
 
+/** Bounds of the refinement's log(f / W). */
+const double kLogFMin = std::log(0.05), kLogFMax = std::log(50.0);
+
 /** Relabel + robust joint refinement, a few rounds. */
 void refineFrame(std::vector<Seg>& segs, Frame& fr, const VanishingPointCalibrator::Params& p,
                  double W, bool est_kappa) {
@@ -586,7 +589,8 @@ void refineFrame(std::vector<Seg>& segs, Frame& fr, const VanishingPointCalibrat
         setKappa(segs, fr.kappa);
         std::vector<int> labels;
         scoreFrame(segs, fr, &labels, 1.5, true);
-        double rot[3] = {0, 0, 0}, logF = std::log(fr.F), kappa = fr.kappa;
+        double rot[3] = {0, 0, 0}, logF = std::clamp(std::log(fr.F), kLogFMin, kLogFMax),
+               kappa = fr.kappa;
         // The residual blocks; with_q: each segment's times its pass factor s.q.
         auto build = [&](ceres::Problem& problem, bool with_q) {
             int nres = 0;
@@ -605,7 +609,15 @@ void refineFrame(std::vector<Seg>& segs, Frame& fr, const VanishingPointCalibrat
                     new ceres::CauchyLoss(1.0), rot, &logF, &kappa);
                 ++nres;
             }
-            if (p.focal > 0) problem.SetParameterBlockConstant(&logF);
+            if (p.focal > 0)
+                problem.SetParameterBlockConstant(&logF);
+            else if (nres > 0) {
+                // f within 0.05-50x the image width: far outside any frame the search keeps
+                // (0.3-6x), but a step can no longer run log f away to hundreds (seed 29's
+                // room_023 with the FLD pass: a NaN Jacobian and an error printed by Ceres).
+                problem.SetParameterLowerBound(&logF, 0, kLogFMin);
+                problem.SetParameterUpperBound(&logF, 0, kLogFMax);
+            }
             if (!est_kappa) problem.SetParameterBlockConstant(&kappa);
             if (p.focal <= 0 && p.focal_prior > 0)
                 problem.AddResidualBlock(
