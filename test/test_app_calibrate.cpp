@@ -280,3 +280,44 @@ TEST(AppCalibrate, EdgelsFindTheFrameOfABareCorner) {
     EXPECT_GT(std::abs(first(seg.output) / f_true - 1), 0.5) << seg.output;
     EXPECT_LT(std::abs(first(edg.output) / f_true - 1), 0.02) << edg.output;
 }
+
+// --principal-point: a camera whose principal point is 30 px right of and 25 px above the
+// centre. Told where it is, --auto puts it in the scene and finds the focal length and rotation
+// more exactly than with the centre assumed; a value outside the image or not two numbers is
+// refused with a message and nothing written.
+TEST(AppCalibrate, PrincipalPointOffCentreGivenOnTheCommandLine) {
+    vbme_test::ScratchDir dir;
+    Camera cam = truthCamera();
+    cam.K(0, 2) += 30;
+    cam.K(1, 2) -= 25;
+    const std::string image = dir / "room.png", out = dir / "scene.yml", out2 = dir / "c.yml";
+    imwrite(image, drawSyntheticRoom(cam, truthRoom(), 0.5, 1.0, 3));
+    const std::string base = kExe + " calibrate -q --auto --camera-height 1.5 --image " + image;
+    const auto given = vbme_test::run(base + " --principal-point " +
+                                      format("%g,%g", cam.K(0, 2), cam.K(1, 2)) + " --out " + out);
+    ASSERT_EQ(given.code, 0) << given.output;
+    const auto centre = vbme_test::run(base + " --out " + out2);
+    ASSERT_EQ(centre.code, 0) << centre.output;
+    const Scene s = Scene::read(out), c = Scene::read(out2);
+    EXPECT_EQ(s.camera.K(0, 2), cam.K(0, 2));
+    EXPECT_EQ(s.camera.K(1, 2), cam.K(1, 2));
+    EXPECT_EQ(c.camera.K(0, 2), 319.5);
+    const double fe = std::abs(s.camera.K(0, 0) / 520 - 1),
+                 fc = std::abs(c.camera.K(0, 0) / 520 - 1);
+    const double re = rotationErrorDeg(s.camera.R, cam.R), rc = rotationErrorDeg(c.camera.R, cam.R);
+    std::printf(
+        "principal point given: focal error %.3f %%, rotation %.3f deg; centre assumed: "
+        "%.3f %%, %.3f deg\n",
+        100 * fe, re, 100 * fc, rc);
+    EXPECT_LT(fe, 0.01);
+    EXPECT_LT(re, 0.3);
+    EXPECT_LT(fe, fc);
+    EXPECT_LT(re, rc);
+    for (const std::string bad : {"700,10", "10,-1", "abc", "10", "1,2,3"}) {
+        const std::string o3 = dir / "bad.yml";
+        const auto r = vbme_test::run(base + " --principal-point " + bad + " --out " + o3);
+        EXPECT_EQ(r.code, 1) << bad << ": " << r.output;
+        EXPECT_NE(r.output.find("--principal-point"), std::string::npos) << r.output;
+        EXPECT_FALSE(fs::exists(o3)) << bad;
+    }
+}

@@ -18,7 +18,7 @@ struct CalibrateOptions {
     int frame = -1;
     bool auto_detect = false, no_exif = false;
     double camera_height = 0, focal = 0, focal_35mm = 0;
-    std::string distortion, method = "global";
+    std::string distortion, method = "global", principal_point;
     bool edgels = false, no_edgels = false;  // given explicitly (the edge pixels are on by default)
     int proposals = 0;
     CommonOptions common;
@@ -71,6 +71,20 @@ void runCalibrate(const CalibrateOptions& o) {
                 ex.model.empty() ? "" : (" (" + ex.make + " " + ex.model + ")").c_str(), f,
                 source.c_str(), ex.focal_mm, ex.focal_35mm);
         }
+    }
+    if (!o.principal_point.empty()) {
+        // "x,y" in pixels of this image (pixel centres at integers); overrides the annotation's
+        double x = 0, y = 0;
+        char tail = 0;
+        if (std::sscanf(o.principal_point.c_str(), "%lf ,%lf %c", &x, &y, &tail) != 2 ||
+            !std::isfinite(x) || !std::isfinite(y))
+            CV_Error(cv::Error::StsBadArg, "--principal-point '" + o.principal_point +
+                                               "': expected two numbers 'x,y' in pixels");
+        if (x < 0 || y < 0 || x > image.cols - 1 || y > image.rows - 1)
+            CV_Error(cv::Error::StsBadArg,
+                     cv::format("--principal-point (%g, %g) is outside the %dx%d image", x, y,
+                                image.cols, image.rows));
+        opt.vp.principal_point = cv::Point2d(x, y);
     }
     opt.vp.estimate_distortion = o.distortion == "k1";
     opt.vp.edgel_scoring = !o.no_edgels;
@@ -172,6 +186,11 @@ void setupCalibrate(CLI::App& app) {
                  "Do not take a focal length prior from the --image's EXIF (FocalLengthIn35mmFilm "
                  "or FocalLength with the focal plane resolution), which is used by default when "
                  "neither --focal nor --focal-35mm is given");
+    app.add_option("--principal-point", o->principal_point,
+                   "Known principal point 'x,y' in pixels (pixel centres at integers; from a "
+                   "camera calibration), overriding the annotation's; default: the image centre. "
+                   "On photographs whose principal point is off centre, views down a corridor get "
+                   "their focal length wrong without it (doc/vbme_calib.md, Limits)");
     app.add_option("--distortion", o->distortion,
                    "Also estimate lens distortion with --auto: 'k1' (one radial coefficient, "
                    "from the straightness of the lines); written to the scene's camera (k1), which "
