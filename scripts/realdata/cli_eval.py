@@ -3,8 +3,8 @@
 written by yud_to_truth.py) and measures it as test/test_calib_rooms.cpp does (focal error
 |f/f_true - 1|; per true Manhattan direction the angle to the nearest estimated vanishing
 point seen through the TRUE intrinsics; a refusal counts 100 % and 90 deg), so that options
-the test does not vary can be measured: the true principal point (given through an annotation
-file holding only `principal_point`, which calibrateFrame() hands to Params::principal_point)
+the test does not vary can be measured: the true principal point (`--principal-point`, which
+calibrateFrame() hands to Params::principal_point)
 and the JPEG's own EXIF focal as the prior.
 
   python3 scripts/realdata/cli_eval.py build/apps/vbme/vbme /path/yud_all out.csv \
@@ -100,10 +100,7 @@ def main():
         if a.distortion:
             cmd += ['--distortion', 'k1']
         if a.pp == 'truth':
-            ann = os.path.join(tmp, 'pp.yml')
-            with open(ann, 'w') as o:
-                o.write('principal_point: [%s, %s]\n' % (t['cx'], t['cy']))
-            cmd += ['--annotation', ann]
+            cmd += ['--principal-point', '%s,%s' % (t['cx'], t['cy'])]
         p = subprocess.run(cmd, capture_output=True, text=True)
         r = {'name': t['name'], 'ok': p.returncode == 0, 'focal_err': 1.0, 'focal_rel': 0.0,
              'dir_err': [90.0] * 3}
